@@ -1,0 +1,1 @@
+//! Focal path guiding.

@@ -1,0 +1,16 @@
+//! focal-render: an unbiased CPU path tracer that loads Mitsuba 0.6 and Mitsuba 3 XML scenes.
+//!
+//! Pipeline: XML is parsed into a neutral [`desc::SceneDesc`] (plugins with typed properties and source
+//! locations), which [`build`] turns into render objects ([`scene::Scene`]); an [`integrator::Integrator`]
+//! estimates radiance along camera rays and [`render`] drives it over the film in parallel,
+//! deterministically for a fixed seed.
+
+pub mod bsdf;
+pub mod color;
+pub mod desc;
+pub mod error;
+pub mod frame;
+pub mod ray;
+pub mod sampler;
+pub mod texture;
+pub mod warp;
