@@ -1,1 +1,38 @@
-fn main() {}
+//! `focal`: render Mitsuba scenes, benchmark the path tracer. Thin: all the work is in `focal-render`.
+
+mod bench;
+mod render_cmd;
+
+use clap::{Parser, Subcommand};
+use std::process::ExitCode;
+
+/// focal — a research path tracer for focal path guiding.
+#[derive(Parser)]
+#[command(name = "focal", version, about)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Render a Mitsuba 0.6 / 3 XML scene to EXR (and optionally PNG), with a JSON sidecar.
+    Render(render_cmd::RenderArgs),
+    /// Measure path-tracing throughput (samples/s) on the reference scenes.
+    Bench(bench::BenchArgs),
+}
+
+fn main() -> ExitCode {
+    let cli = Cli::parse();
+    let result = match cli.command {
+        Command::Render(a) => render_cmd::run(a),
+        Command::Bench(a) => bench::run(a),
+    };
+    match result {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("error: {e:#}");
+            ExitCode::FAILURE
+        }
+    }
+}

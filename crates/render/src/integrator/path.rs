@@ -1,0 +1,144 @@
+//! Unidirectional path tracing with next-event estimation and MIS (Mitsuba `path`).
+
+use super::{power_heuristic, FirstHitAovs, Integrator};
+use crate::bsdf::BsdfContext;
+use crate::color::Rgb;
+use crate::ray::{offset_ray_origin, Ray};
+use crate::sampler::Sampler;
+use crate::scene::Scene;
+
+/// Settings of the path integrator, with Mitsuba's meanings.
+#[derive(Clone, Copy, Debug, serde::Serialize, serde::Deserialize)]
+pub struct PathSettings {
+    /// Longest path in segments from the camera (`u32::MAX` = unlimited, Mitsuba's -1); 1 = directly visible
+    /// emitters only, 2 = direct lighting.
+    pub max_depth: u32,
+    /// Depth (1 = first hit) from which Russian roulette applies (Mitsuba's `rr_depth`, default 5).
+    pub rr_depth: u32,
+    /// Russian roulette on or off (always on in Mitsuba's `path`; guided runs turn it off).
+    pub russian_roulette: bool,
+    /// Directly visible emitters read as black.
+    pub hide_emitters: bool,
+}
+
+impl Default for PathSettings {
+    fn default() -> Self {
+        PathSettings { max_depth: u32::MAX, rr_depth: 5, russian_roulette: true, hide_emitters: false }
+    }
+}
+
+/// The path tracer every guiding method is compared against.
+#[derive(Clone, Debug, Default)]
+pub struct PathIntegrator {
+    /// Settings.
+    pub settings: PathSettings,
+}
+
+impl Integrator for PathIntegrator {
+    fn li(&self, scene: &Scene, mut ray: Ray, sampler: &mut Sampler, aovs: &mut FirstHitAovs) -> Rgb {
+        let s = &self.settings;
+        let mut result = Rgb::ZERO;
+        let mut throughput = Rgb::ONE;
+        let mut eta = 1.0f32;
+        // depth = number of surface interactions so far (Mitsuba: emission at hit k counts iff k ≤ max_depth).
+        let mut depth: u32 = 0;
+        let mut prev_p = ray.o;
+        let mut prev_bsdf_pdf = 1.0f32;
+        let mut prev_bsdf_delta = true;
+
+        loop {
+            let si = scene.intersect(&ray);
+
+            // Emission reached by the previous sampling decision (or the camera ray).
+            let visible = !(s.hide_emitters && depth == 0);
+            match &si {
+                Some(si) => {
+                    if let Some(e) = scene.shapes[si.shape as usize].emitter {
+                        let le = scene.emitters[e as usize].eval_area(si.to_local(-ray.d).z);
+                        if visible && le != Rgb::ZERO {
+                            let mis = if prev_bsdf_delta {
+                                1.0
+                            } else {
+                                power_heuristic(prev_bsdf_pdf, scene.pdf_emitter_direction_area(prev_p, si))
+                            };
+                            result += throughput * le * mis;
+                        }
+                    }
+                    if depth == 0 {
+                        let ctx = BsdfContext { uv: si.uv };
+                        aovs.albedo = scene.bsdfs[scene.shapes[si.shape as usize].bsdf as usize].albedo(&ctx);
+                        aovs.normal = si.sh_frame.n;
+                        aovs.depth = si.t;
+                    }
+                }
+                None => {
+                    if let Some(env) = scene.environment {
+                        if visible {
+                            let le = scene.emitters[env as usize].eval_environment(ray.d);
+                            let mis = if prev_bsdf_delta {
+                                1.0
+                            } else {
+                                power_heuristic(prev_bsdf_pdf, scene.pdf_emitter_direction_env(ray.d))
+                            };
+                            result += throughput * le * mis;
+                        }
+                    }
+                    break;
+                }
+            }
+            let si = si.unwrap();
+            if depth.saturating_add(1) >= s.max_depth {
+                break;
+            }
+
+            let bsdf = &scene.bsdfs[scene.shapes[si.shape as usize].bsdf as usize];
+            let ctx = BsdfContext { uv: si.uv };
+            let wi = si.to_local(-ray.d);
+
+            // Next-event estimation.
+            if bsdf.has_smooth() {
+                let u1 = sampler.next_1d();
+                let u2 = sampler.next_1d();
+                let u = sampler.next_2d();
+                if let Some((_, es)) = scene.sample_emitter_direction(si.p, u1, u2, u) {
+                    let wo = si.to_local(es.wi);
+                    let f = bsdf.eval(&ctx, wi, wo);
+                    if f != Rgb::ZERO {
+                        let o = offset_ray_origin(si.p, si.ng, es.wi);
+                        let t_max = if es.dist.is_finite() { (es.dist * (1.0 - 1e-4)).max(0.0) } else { f32::INFINITY };
+                        if !scene.occluded(&Ray::segment(o, es.wi, t_max)) {
+                            let mis = if es.delta { 1.0 } else { power_heuristic(es.pdf, bsdf.pdf(&ctx, wi, wo)) };
+                            result += throughput * f * es.weight * mis;
+                        }
+                    }
+                }
+            }
+
+            // BSDF sampling.
+            let u1 = sampler.next_1d();
+            let u2 = sampler.next_2d();
+            let Some(bs) = bsdf.sample(&ctx, wi, u1, u2) else { break };
+            let wo_world = si.to_world(bs.wo);
+            throughput *= bs.weight;
+            eta *= bs.eta;
+            prev_p = si.p;
+            prev_bsdf_pdf = bs.pdf;
+            prev_bsdf_delta = bs.delta;
+            depth += 1;
+
+            let tmax = throughput.max_element();
+            if !(tmax > 0.0) || !tmax.is_finite() {
+                break;
+            }
+            if s.russian_roulette && depth >= s.rr_depth {
+                let q = (tmax * eta * eta).min(0.95);
+                if sampler.next_1d() >= q {
+                    break;
+                }
+                throughput /= q;
+            }
+            ray = Ray::new(offset_ray_origin(si.p, si.ng, wo_world), wo_world);
+        }
+        result
+    }
+}

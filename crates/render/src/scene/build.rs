@@ -1,0 +1,415 @@
+//! Turns the neutral scene description into render objects (as pbrt-v4 and Mitsuba do): shapes with their
+//! materials and area lights, other lights, the camera, film, sampler and integrator settings.
+
+use super::{Scene, ShapeInfo};
+use crate::accel::{Accel, BvhAccel};
+use crate::bsdf::{bsdf_from_desc, Bsdf, Diffuse};
+use crate::camera::{camera_from_desc, Camera};
+use crate::desc::{ObjectClass, ObjectDesc, SceneDesc};
+use crate::emitter::{Emitter, SpotLight};
+use crate::error::{SceneError, SceneResult};
+use crate::film::{film_from_desc, FilmSpec};
+use crate::geometry::{cube_mesh, rectangle_mesh, Disk, ShapeGeometry, Sphere, TriangleMesh};
+use crate::integrator::PathSettings;
+use crate::mesh::{load_obj, load_ply, MeshData};
+use crate::sampler::SamplerKind;
+use crate::texture::Texture;
+use glam::{Affine3A, Mat4, Vec3};
+use std::collections::HashMap;
+use std::sync::Arc;
+
+/// Which integrator the scene asks for (after mapping Mitsuba plugin names onto ours).
+#[derive(Clone, Debug, serde::Serialize, serde::Deserialize)]
+pub enum IntegratorSpec {
+    /// Unidirectional path tracing (`path`; also `volpath` in scenes without media, and `direct` as a
+    /// path tracer limited to direct lighting, max_depth 2).
+    Path(PathSettings),
+}
+
+/// How to handle plugins we do not support.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Strictness {
+    /// An unknown plugin is an error (default).
+    #[default]
+    Strict,
+    /// An unknown plugin is a warning and gets a documented fallback: unknown BSDFs become grey diffuse
+    /// (0.5), unknown shapes and emitters are skipped, an unknown integrator becomes `path`.
+    Lenient,
+}
+
+/// Options for building a scene.
+#[derive(Clone, Debug, Default)]
+pub struct BuildOptions {
+    /// Replace the scene's integrator element by this plugin name (e.g. "path").
+    pub integrator_override: Option<String>,
+    /// Unknown-plugin handling.
+    pub strictness: Strictness,
+}
+
+/// Sampler settings of the sensor.
+#[derive(Clone, Copy, Debug, serde::Serialize, serde::Deserialize)]
+pub struct SamplerSpec {
+    /// Generator.
+    pub kind: SamplerKind,
+    /// Samples per pixel the scene asks for.
+    pub spp: u32,
+}
+
+/// A scene with everything needed to render it.
+pub struct LoadedScene {
+    /// Geometry, materials, lights.
+    pub scene: Scene,
+    /// The camera.
+    pub camera: Camera,
+    /// Film settings.
+    pub film: FilmSpec,
+    /// Sampler settings.
+    pub sampler: SamplerSpec,
+    /// Integrator settings.
+    pub integrator: IntegratorSpec,
+    /// Non-fatal problems (unsupported parameters ignored, lenient fallbacks used).
+    pub warnings: Vec<String>,
+}
+
+struct Builder<'a> {
+    opts: &'a BuildOptions,
+    geometries: Vec<ShapeGeometry>,
+    shapes: Vec<ShapeInfo>,
+    bsdfs: Vec<Bsdf>,
+    bsdf_index: HashMap<*const ObjectDesc, u32>,
+    emitters: Vec<Emitter>,
+    emitter_weights: Vec<f32>,
+    warnings: Vec<String>,
+}
+
+/// Builds a scene from its description.
+pub fn build_scene(desc: &SceneDesc, opts: &BuildOptions) -> SceneResult<LoadedScene> {
+    let mut b = Builder {
+        opts,
+        geometries: Vec::new(),
+        shapes: Vec::new(),
+        bsdfs: Vec::new(),
+        bsdf_index: HashMap::new(),
+        emitters: Vec::new(),
+        emitter_weights: Vec::new(),
+        warnings: Vec::new(),
+    };
+    let root = &desc.root;
+    let mut sensor: Option<&ObjectDesc> = None;
+    let mut integrator: Option<&ObjectDesc> = None;
+    for child in &root.children {
+        let o = child.object.as_ref();
+        match &o.class {
+            ObjectClass::Shape => b.add_shape(o)?,
+            ObjectClass::Emitter => b.add_emitter(o, None)?,
+            ObjectClass::Sensor => {
+                if sensor.is_none() {
+                    sensor = Some(o);
+                } else {
+                    b.warnings.push(format!("{}: extra sensor ignored (the first one is used)", o.loc));
+                }
+            }
+            ObjectClass::Integrator => integrator = Some(o),
+            // Declarations referenced by id elsewhere.
+            ObjectClass::Bsdf | ObjectClass::Texture => {}
+            ObjectClass::Medium | ObjectClass::Phase => {
+                return Err(o.error(format!(
+                    "participating media ('{}' {}) are not supported yet",
+                    o.plugin,
+                    o.class.tag()
+                )))
+            }
+            other => b.unknown(o, &format!("top-level <{}> element", other.tag()))?,
+        }
+    }
+    let sensor = sensor.ok_or_else(|| SceneError::in_file(&desc.path, "the scene has no <sensor>"))?;
+    let film_desc = sensor.children_of(&ObjectClass::Film).next().map(|c| c.object.as_ref());
+    let film = film_from_desc(film_desc)?;
+    let camera = camera_from_desc(sensor, glam::UVec2::new(film.width, film.height))?;
+    let sampler = sampler_from_desc(sensor.children_of(&ObjectClass::Sampler).next().map(|c| c.object.as_ref()))?;
+    let integrator = b.integrator_from_desc(integrator, &desc.path)?;
+
+    let Builder { geometries, shapes, bsdfs, emitters, emitter_weights, warnings, .. } = b;
+    let scene = Scene::new(
+        geometries,
+        shapes,
+        bsdfs,
+        emitters,
+        &emitter_weights,
+        &[camera.position()],
+        |g| Box::new(BvhAccel::build(g)) as Box<dyn Accel>,
+    );
+    Ok(LoadedScene { scene, camera, film, sampler, integrator, warnings })
+}
+
+fn sampler_from_desc(s: Option<&ObjectDesc>) -> SceneResult<SamplerSpec> {
+    let Some(s) = s else { return Ok(SamplerSpec { kind: SamplerKind::Independent, spp: 4 }) };
+    let kind = match s.plugin.as_str() {
+        "independent" => SamplerKind::Independent,
+        "stratified" | "multijitter" | "orthogonal" | "ldsampler" | "sobol" | "halton" | "hammersley" => {
+            SamplerKind::Sobol
+        }
+        other => return Err(s.error(format!("unknown sampler plugin '{other}'"))),
+    };
+    let spp = s.int_or("sample_count", 4)?;
+    if spp < 1 {
+        return Err(s.error(format!("sample_count must be at least 1, got {spp}")));
+    }
+    Ok(SamplerSpec { kind, spp: spp.min(u32::MAX as i64) as u32 })
+}
+
+impl Builder<'_> {
+    fn unknown(&mut self, o: &ObjectDesc, what: &str) -> SceneResult<()> {
+        let msg = format!("unsupported {what}: plugin '{}'", o.plugin);
+        match self.opts.strictness {
+            Strictness::Strict => Err(o.error(msg)),
+            Strictness::Lenient => {
+                self.warnings.push(format!("{}: {msg} (skipped)", o.loc));
+                Ok(())
+            }
+        }
+    }
+
+    fn integrator_from_desc(
+        &mut self,
+        i: Option<&ObjectDesc>,
+        scene_path: &std::path::Path,
+    ) -> SceneResult<IntegratorSpec> {
+        let name = match (&self.opts.integrator_override, i) {
+            (Some(n), _) => n.clone(),
+            (None, Some(i)) => i.plugin.clone(),
+            (None, None) => "path".to_string(),
+        };
+        let read = |i: Option<&ObjectDesc>, default_depth: i64| -> SceneResult<PathSettings> {
+            let mut s = PathSettings::default();
+            let Some(i) = i else { return Ok(s) };
+            let md = i.int_or("max_depth", default_depth)?;
+            s.max_depth = match md {
+                -1 => u32::MAX,
+                d if d >= 0 => d.min(u32::MAX as i64) as u32,
+                d => return Err(i.error(format!("max_depth must be -1 (unlimited) or >= 0, got {d}"))),
+            };
+            let rr = i.int_or("rr_depth", 5)?;
+            if rr <= 0 {
+                return Err(i.error(format!("rr_depth must be > 0, got {rr}")));
+            }
+            s.rr_depth = rr as u32;
+            s.hide_emitters = i.bool_or("hide_emitters", false)?;
+            Ok(s)
+        };
+        // Settings are read from the scene's element when it is a path-family integrator.
+        let source = i.filter(|i| matches!(i.plugin.as_str(), "path" | "volpath" | "direct" | "guided_path"));
+        match name.as_str() {
+            "path" | "volpath" => Ok(IntegratorSpec::Path(read(source, -1)?)),
+            "direct" => {
+                let mut s = read(None, -1)?;
+                s.max_depth = 2;
+                if let Some(i) = i {
+                    s.hide_emitters = i.bool_or("hide_emitters", false)?;
+                }
+                Ok(IntegratorSpec::Path(s))
+            }
+            other => {
+                let msg = format!(
+                    "unsupported integrator plugin '{other}' (use --integrator path to override the scene's integrator)"
+                );
+                match (self.opts.strictness, i) {
+                    (Strictness::Lenient, _) => {
+                        self.warnings.push(format!("{msg}; rendering with 'path'"));
+                        Ok(IntegratorSpec::Path(read(source, -1)?))
+                    }
+                    (Strictness::Strict, Some(i)) => Err(i.error(msg)),
+                    (Strictness::Strict, None) => Err(SceneError::in_file(scene_path, msg)),
+                }
+            }
+        }
+    }
+
+    fn bsdf_for(&mut self, o: &Arc<ObjectDesc>) -> SceneResult<u32> {
+        let key = Arc::as_ptr(o);
+        if let Some(&i) = self.bsdf_index.get(&key) {
+            return Ok(i);
+        }
+        let bsdf = match bsdf_from_desc(o) {
+            Ok(b) => b,
+            Err(e) if self.opts.strictness == Strictness::Lenient && e.message.contains("unknown BSDF plugin") => {
+                self.warnings.push(format!("{e} (using grey diffuse 0.5)"));
+                Bsdf::Diffuse(Diffuse { reflectance: Texture::constant(0.5) })
+            }
+            Err(e) => return Err(e),
+        };
+        let i = self.bsdfs.len() as u32;
+        self.bsdfs.push(bsdf);
+        self.bsdf_index.insert(key, i);
+        Ok(i)
+    }
+
+    fn add_shape(&mut self, o: &ObjectDesc) -> SceneResult<()> {
+        let to_world = o.transform_or_identity("to_world")?;
+        let flip = o.bool_or("flip_normals", false)?;
+        let geometry = match o.plugin.as_str() {
+            "obj" | "ply" => {
+                let (path, loc) = o
+                    .resolve_path("filename")?
+                    .ok_or_else(|| o.error(format!("shape '{}' needs a 'filename'", o.plugin)))?;
+                let mut data = if o.plugin == "obj" {
+                    load_obj(&path, &loc, o.bool_or("flip_tex_coords", true)?)?
+                } else {
+                    load_ply(&path, &loc)?
+                };
+                data.validate(&path)?;
+                if o.bool_or("face_normals", false)? {
+                    data.normals = None;
+                } else if data.normals.is_none() {
+                    data.normals = Some(data.compute_vertex_normals());
+                }
+                data.transform(&to_world);
+                ShapeGeometry::Mesh(mesh_from_data(data, flip))
+            }
+            "rectangle" | "cube" => {
+                let (p, n, uv, idx) = if o.plugin == "rectangle" { rectangle_mesh() } else { cube_mesh() };
+                let mut data = MeshData { positions: p, normals: Some(n), uvs: Some(uv), indices: idx };
+                data.transform(&to_world);
+                ShapeGeometry::Mesh(mesh_from_data(data, flip))
+            }
+            "sphere" => {
+                let center = o.vec3_or("center", Vec3::ZERO)?;
+                let radius = o.float_or("radius", 1.0)? as f32;
+                let (scale, uniform) = uniform_scale(&to_world);
+                if !uniform {
+                    return Err(o.error("a sphere's to_world must not scale non-uniformly"));
+                }
+                let radius = radius * scale;
+                if !(radius > 0.0) || !radius.is_finite() {
+                    return Err(o.error(format!("sphere radius must be positive, got {radius}")));
+                }
+                ShapeGeometry::Sphere(Sphere {
+                    center: to_world.transform_point3(center),
+                    radius,
+                    flip_normals: flip,
+                })
+            }
+            "disk" => {
+                let d = Disk::new(Affine3A::from_mat4(to_world), flip)
+                    .ok_or_else(|| o.error("degenerate disk transform (zero area)"))?;
+                ShapeGeometry::Disk(d)
+            }
+            _ => return self.unknown(o, "shape"),
+        };
+        if let ShapeGeometry::Mesh(m) = &geometry {
+            if m.indices.is_empty() {
+                self.warnings.push(format!("{}: shape '{}' has no triangles (skipped)", o.loc, o.plugin));
+                return Ok(());
+            }
+        }
+        let shape_index = self.geometries.len() as u32;
+        let area_emitter = o.children_of(&ObjectClass::Emitter).next().map(|c| c.object.clone());
+        let bsdf_child = o.children_of(&ObjectClass::Bsdf).next().map(|c| c.object.clone());
+        let bsdf = match bsdf_child {
+            Some(b) => self.bsdf_for(&b)?,
+            None => {
+                // Mitsuba: grey 0.5 diffuse, or black for emitters.
+                let refl = if area_emitter.is_some() { 0.0 } else { 0.5 };
+                let i = self.bsdfs.len() as u32;
+                self.bsdfs.push(Bsdf::Diffuse(Diffuse { reflectance: Texture::constant(refl) }));
+                i
+            }
+        };
+        let emitter = match area_emitter {
+            Some(e) => {
+                if e.plugin != "area" {
+                    return Err(e.error(format!(
+                        "emitter '{}' cannot be attached to a shape (only 'area' can)",
+                        e.plugin
+                    )));
+                }
+                self.add_emitter(&e, Some(shape_index))?;
+                Some(self.emitters.len() as u32 - 1)
+            }
+            None => None,
+        };
+        let name = o.id.clone().unwrap_or_else(|| format!("{} at {}", o.plugin, o.loc));
+        self.geometries.push(geometry);
+        self.shapes.push(ShapeInfo { bsdf, emitter, name });
+        Ok(())
+    }
+
+    fn add_emitter(&mut self, o: &ObjectDesc, shape: Option<u32>) -> SceneResult<()> {
+        let to_world = o.transform_or_identity("to_world")?;
+        let weight = o.float_or("sampling_weight", 1.0)? as f32;
+        if !(weight >= 0.0) {
+            return Err(o.error("sampling_weight must be non-negative"));
+        }
+        let nonneg = |name: &str, v: Vec3| -> SceneResult<Vec3> {
+            if v.is_finite() && v.min_element() >= 0.0 {
+                Ok(v)
+            } else {
+                Err(o.error(format!("emitter '{}': {name} must be finite and non-negative, got {v}", o.plugin)))
+            }
+        };
+        let emitter = match o.plugin.as_str() {
+            "area" => {
+                let Some(shape) = shape else {
+                    return Err(o.error("an 'area' emitter must be nested inside a <shape>"));
+                };
+                Emitter::Area { shape, radiance: nonneg("radiance", o.rgb_or("radiance", Vec3::ONE)?)? }
+            }
+            "point" => {
+                let position = match o.prop("position") {
+                    Some(_) => o.vec3_or("position", Vec3::ZERO)?,
+                    None => to_world.transform_point3(Vec3::ZERO),
+                };
+                Emitter::Point { position, intensity: nonneg("intensity", o.rgb_or("intensity", Vec3::ONE)?)? }
+            }
+            "spot" => {
+                let cutoff = o.float_or("cutoff_angle", 20.0)?;
+                let beam = o.float_or("beam_width", cutoff * 0.75)?;
+                if !(cutoff > 0.0 && cutoff <= 180.0) || !(beam >= 0.0) {
+                    return Err(o.error(format!("spot: invalid cutoff_angle {cutoff} / beam_width {beam}")));
+                }
+                let beam = beam.min(cutoff);
+                Emitter::Spot(SpotLight::new(
+                    to_world.transform_point3(Vec3::ZERO),
+                    to_world.transform_vector3(Vec3::Z),
+                    nonneg("intensity", o.rgb_or("intensity", Vec3::ONE)?)?,
+                    (cutoff as f32).to_radians(),
+                    (beam as f32).to_radians(),
+                ))
+            }
+            "constant" => Emitter::Constant { radiance: nonneg("radiance", o.rgb_or("radiance", Vec3::ONE)?)? },
+            "directional" => {
+                let dir = match o.prop("direction") {
+                    Some(_) => o.vec3_or("direction", Vec3::Z)?,
+                    None => to_world.transform_vector3(Vec3::Z),
+                };
+                if !(dir.length_squared() > 0.0) {
+                    return Err(o.error("directional: direction must be non-zero"));
+                }
+                Emitter::Directional {
+                    direction: dir.normalize(),
+                    irradiance: nonneg("irradiance", o.rgb_or("irradiance", Vec3::ONE)?)?,
+                }
+            }
+            _ => return self.unknown(o, "emitter"),
+        };
+        if emitter.is_environment() && self.emitters.iter().any(|e| e.is_environment()) {
+            return Err(o.error("only one environment emitter is allowed"));
+        }
+        self.emitters.push(emitter);
+        self.emitter_weights.push(weight);
+        Ok(())
+    }
+}
+
+fn mesh_from_data(d: MeshData, flip: bool) -> TriangleMesh {
+    TriangleMesh::new(d.positions, d.normals, d.uvs, d.indices, flip)
+}
+
+/// The scale factor of a similarity transform, and whether the transform's scale is uniform.
+fn uniform_scale(m: &Mat4) -> (f32, bool) {
+    let sx = m.x_axis.truncate().length();
+    let sy = m.y_axis.truncate().length();
+    let sz = m.z_axis.truncate().length();
+    let uniform = (sx - sy).abs() <= 1e-4 * sx && (sx - sz).abs() <= 1e-4 * sx;
+    (sx, uniform)
+}

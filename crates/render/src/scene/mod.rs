@@ -1,0 +1,200 @@
+//! The render-ready scene: geometry, materials, lights, camera and settings, with the queries integrators
+//! need (closest hit, visibility, light sampling and light pdfs).
+
+mod build;
+
+pub use build::{build_scene, BuildOptions, IntegratorSpec, LoadedScene, SamplerSpec, Strictness};
+
+use crate::accel::{Accel, PrimHit};
+use crate::bsdf::Bsdf;
+use crate::emitter::{Emitter, EmitterSample};
+use crate::frame::Frame;
+use crate::geometry::{Aabb, ShapeGeometry, SurfaceInteraction};
+use crate::ray::Ray;
+use glam::{Vec2, Vec3};
+
+/// Per-shape material and light bindings (parallel to [`Scene::geometries`]).
+#[derive(Clone, Debug)]
+pub struct ShapeInfo {
+    /// Index into [`Scene::bsdfs`].
+    pub bsdf: u32,
+    /// Index into [`Scene::emitters`] of the area light on this shape, if any.
+    pub emitter: Option<u32>,
+    /// The shape's `id`, or a description of where it came from (for messages and visualisation).
+    pub name: String,
+}
+
+/// A scene ready to render.
+pub struct Scene {
+    /// Shape geometries, world space.
+    pub geometries: Vec<ShapeGeometry>,
+    /// Shape bindings, parallel to `geometries`.
+    pub shapes: Vec<ShapeInfo>,
+    /// Materials.
+    pub bsdfs: Vec<Bsdf>,
+    /// Lights.
+    pub emitters: Vec<Emitter>,
+    /// The environment light seen by escaping rays, if any.
+    pub environment: Option<u32>,
+    /// Bounds of all geometry (plus the camera position, as Mitsuba 0.6's scene AABB).
+    pub bounds: Aabb,
+    emitter_cdf: Vec<f32>,
+    accel: Box<dyn Accel>,
+}
+
+impl Scene {
+    /// Assembles a scene and builds its acceleration structure.
+    /// `emitter_weights` are the emitters' `sampling_weight`s (selection probability ∝ weight).
+    pub fn new(
+        geometries: Vec<ShapeGeometry>,
+        shapes: Vec<ShapeInfo>,
+        bsdfs: Vec<Bsdf>,
+        emitters: Vec<Emitter>,
+        emitter_weights: &[f32],
+        extra_bounds: &[Vec3],
+        accel: impl FnOnce(&[ShapeGeometry]) -> Box<dyn Accel>,
+    ) -> Self {
+        assert_eq!(geometries.len(), shapes.len());
+        assert_eq!(emitters.len(), emitter_weights.len());
+        let environment = emitters.iter().position(|e| e.is_environment()).map(|i| i as u32);
+        let mut bounds = geometries.iter().fold(Aabb::EMPTY, |b, g| b.union(&g.bounds()));
+        for p in extra_bounds {
+            bounds.expand(*p);
+        }
+        for e in &emitters {
+            match e {
+                Emitter::Point { position, .. } => bounds.expand(*position),
+                Emitter::Spot(s) => bounds.expand(s.position()),
+                _ => {}
+            }
+        }
+        let total: f64 = emitter_weights.iter().map(|&w| w.max(0.0) as f64).sum();
+        let mut acc = 0.0f64;
+        let emitter_cdf = emitter_weights
+            .iter()
+            .map(|&w| {
+                acc += w.max(0.0) as f64;
+                (acc / total.max(f64::MIN_POSITIVE)) as f32
+            })
+            .collect();
+        let accel = accel(&geometries);
+        Scene { geometries, shapes, bsdfs, emitters, environment, bounds, emitter_cdf, accel }
+    }
+
+    /// Closest surface hit along `ray`.
+    pub fn intersect(&self, ray: &Ray) -> Option<SurfaceInteraction> {
+        let hit = self.accel.intersect(ray)?;
+        Some(self.interaction(ray, &hit))
+    }
+
+    /// True if the segment `ray` (up to `t_max`) is blocked.
+    #[inline]
+    pub fn occluded(&self, ray: &Ray) -> bool {
+        self.accel.occluded(ray)
+    }
+
+    /// Computes surface data for a primitive hit.
+    pub fn interaction(&self, ray: &Ray, hit: &PrimHit) -> SurfaceInteraction {
+        let shape = hit.shape;
+        match &self.geometries[shape as usize] {
+            ShapeGeometry::Mesh(m) => {
+                let i = hit.prim as usize;
+                let b = hit.bary;
+                let [a, bb, c] = m.vertices(i);
+                let p = a * (1.0 - b.x - b.y) + bb * b.x + c * b.y;
+                let ng = m.face_normal(i);
+                let ns = m.shading_normal(i, b);
+                let uv = m.uv(i, b);
+                // dp/du from the uv parameterisation gives anisotropic BSDFs a consistent tangent.
+                let tangent = match &m.uvs {
+                    Some(uvs) => {
+                        let [i0, i1, i2] = m.indices[i];
+                        let (t0, t1, t2) = (uvs[i0 as usize], uvs[i1 as usize], uvs[i2 as usize]);
+                        let (d1, d2) = (t1 - t0, t2 - t0);
+                        let det = d1.x * d2.y - d1.y * d2.x;
+                        if det.abs() > 1e-12 {
+                            ((bb - a) * d2.y - (c - a) * d1.y) / det
+                        } else {
+                            bb - a
+                        }
+                    }
+                    None => bb - a,
+                };
+                SurfaceInteraction {
+                    t: hit.t,
+                    p,
+                    ng,
+                    sh_frame: Frame::from_normal_tangent(ns, tangent),
+                    uv,
+                    shape,
+                }
+            }
+            ShapeGeometry::Sphere(s) => {
+                let p = s.project(ray.at(hit.t));
+                let n = s.normal(p);
+                let l = p - s.center;
+                let tangent = Vec3::new(-l.y, l.x, 0.0);
+                SurfaceInteraction {
+                    t: hit.t,
+                    p,
+                    ng: n,
+                    sh_frame: Frame::from_normal_tangent(n, tangent),
+                    uv: s.uv(p),
+                    shape,
+                }
+            }
+            ShapeGeometry::Disk(d) => {
+                let p = ray.at(hit.t);
+                let n = d.normal();
+                SurfaceInteraction { t: hit.t, p, ng: n, sh_frame: Frame::from_normal(n), uv: d.uv(p), shape }
+            }
+        }
+    }
+
+    /// Probability of choosing emitter `i` for next-event estimation.
+    #[inline]
+    pub fn emitter_selection_pdf(&self, i: usize) -> f32 {
+        let lo = if i == 0 { 0.0 } else { self.emitter_cdf[i - 1] };
+        self.emitter_cdf[i] - lo
+    }
+
+    /// Chooses an emitter with `u1`, then samples a direction towards it from `x`. The returned sample's pdf
+    /// and weight include the selection probability. Visibility is not tested.
+    pub fn sample_emitter_direction(&self, x: Vec3, u1: f32, u2: f32, u: Vec2) -> Option<(u32, EmitterSample)> {
+        if self.emitters.is_empty() {
+            return None;
+        }
+        let i = self.emitter_cdf.partition_point(|&c| c <= u1).min(self.emitters.len() - 1);
+        let sel = self.emitter_selection_pdf(i);
+        if !(sel > 0.0) {
+            return None;
+        }
+        let mut s = self.emitters[i].sample_direction(&self.geometries, x, u2, u)?;
+        s.pdf *= sel;
+        s.weight /= sel;
+        Some((i as u32, s))
+    }
+
+    /// Solid-angle density of [`Scene::sample_emitter_direction`] producing the direction from `x` to the
+    /// area-light point `si` (including selection).
+    pub fn pdf_emitter_direction_area(&self, x: Vec3, si: &SurfaceInteraction) -> f32 {
+        match self.shapes[si.shape as usize].emitter {
+            Some(e) => {
+                self.emitters[e as usize].pdf_direction(&self.geometries, x, si.p, si.sh_frame.n)
+                    * self.emitter_selection_pdf(e as usize)
+            }
+            None => 0.0,
+        }
+    }
+
+    /// Solid-angle density of sampling direction `d` towards the environment light (including selection).
+    pub fn pdf_emitter_direction_env(&self, d: Vec3) -> f32 {
+        match self.environment {
+            Some(e) => {
+                self.emitters[e as usize].pdf_direction(&self.geometries, Vec3::ZERO, d, Vec3::ZERO)
+                    * self.emitter_selection_pdf(e as usize)
+            }
+            None => 0.0,
+        }
+    }
+}
