@@ -6,9 +6,11 @@
 //! deterministically for a fixed seed.
 
 pub mod bsdf;
+pub mod camera;
 pub mod color;
 pub mod desc;
 pub mod error;
+pub mod film;
 pub mod frame;
 pub mod ray;
 pub mod sampler;
