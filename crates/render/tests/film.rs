@@ -248,6 +248,10 @@ fn non_finite_samples_are_rejected_and_counted() {
         ..AovSample::default()
     };
     assert!(!block.put(Vec2::new(1.5, 1.5), Vec3::ONE, Some(&bad_aov)));
+    assert!(
+        block.put(Vec2::new(1e30, -1e30), Vec3::ONE, None),
+        "far away: accepted, not written"
+    );
     assert_eq!(block.rejected_samples(), 4);
     film.merge_block(&block);
     assert_eq!(film.rejected_samples(), 4);

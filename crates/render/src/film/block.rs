@@ -133,6 +133,14 @@ impl ImageBlock {
         }
         let values = &values[..self.channels];
         let ext = self.ext_size().as_ivec2();
+        // Samples far outside the stored region touch nothing; bailing out early also keeps the integer
+        // conversions below away from saturation.
+        let reach = self.filter.radius() + 1.0;
+        let lo_bound = self.origin().as_vec2() - Vec2::splat(reach);
+        let hi_bound = (self.origin() + ext).as_vec2() + Vec2::splat(reach);
+        if film_pos.cmplt(lo_bound).any() || film_pos.cmpgt(hi_bound).any() {
+            return true;
+        }
 
         if self.filter.is_box() {
             let p = film_pos.floor().as_ivec2() - self.origin();
