@@ -61,7 +61,9 @@ pub fn x_fov_from_axis(fov_deg: f64, axis: FovAxis, aspect: f64) -> f64 {
 
 /// The diagonal field of view in degrees of a lens of `focal_mm` millimetres on 35 mm film.
 pub fn diagonal_fov_from_focal_length(focal_mm: f64) -> f64 {
-    2.0 * (film_35mm_diagonal_mm() / (2.0 * focal_mm)).atan().to_degrees()
+    2.0 * (film_35mm_diagonal_mm() / (2.0 * focal_mm))
+        .atan()
+        .to_degrees()
 }
 
 /// Reads `fov` + `fov_axis`, or else `focal_length` (default "50mm", a string with an optional "mm"
@@ -100,14 +102,21 @@ pub fn parse_x_fov(sensor: &ObjectDesc, aspect: f64) -> SceneResult<f64> {
             Some((v, loc)) => {
                 return Err(crate::error::SceneError::at(
                     loc,
-                    format!("focal_length must be a string like \"50mm\", found <{}>", v.type_name()),
+                    format!(
+                        "focal_length must be a string like \"50mm\", found <{}>",
+                        v.type_name()
+                    ),
                 ))
             }
         };
         if !(focal_mm.is_finite() && focal_mm > 0.0) {
             return Err(sensor.error(format!("focal_length must be positive, got {focal_mm} mm")));
         }
-        x_fov_from_axis(diagonal_fov_from_focal_length(focal_mm), FovAxis::Diagonal, aspect)
+        x_fov_from_axis(
+            diagonal_fov_from_focal_length(focal_mm),
+            FovAxis::Diagonal,
+            aspect,
+        )
     };
     if !(x_fov > 0.0 && x_fov < 180.0) {
         return Err(sensor.error(format!(

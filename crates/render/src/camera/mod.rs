@@ -41,7 +41,10 @@ pub fn camera_from_desc(sensor: &ObjectDesc, film_size: UVec2) -> SceneResult<Ca
         )));
     }
     if film_size.x == 0 || film_size.y == 0 {
-        return Err(sensor.error(format!("the film size {}x{} is empty", film_size.x, film_size.y)));
+        return Err(sensor.error(format!(
+            "the film size {}x{} is empty",
+            film_size.x, film_size.y
+        )));
     }
     let to_world = rigid_camera_to_world(sensor)?;
     let aspect = film_size.x as f64 / film_size.y as f64;
@@ -49,14 +52,22 @@ pub fn camera_from_desc(sensor: &ObjectDesc, film_size: UVec2) -> SceneResult<Ca
     let near_clip = sensor.float_or("near_clip", 1e-2)?;
     let far_clip = sensor.float_or("far_clip", 1e4)?;
     if !(near_clip > 0.0 && near_clip.is_finite()) {
-        return Err(sensor.error(format!("near_clip must be greater than zero, got {near_clip}")));
+        return Err(sensor.error(format!(
+            "near_clip must be greater than zero, got {near_clip}"
+        )));
     }
-    if !(far_clip > near_clip) {
+    if far_clip.is_nan() || far_clip <= near_clip {
         return Err(sensor.error(format!(
             "near_clip ({near_clip}) must be smaller than far_clip ({far_clip})"
         )));
     }
-    let projection = Projection::new(to_world, film_size, x_fov, near_clip as f32, far_clip as f32);
+    let projection = Projection::new(
+        to_world,
+        film_size,
+        x_fov,
+        near_clip as f32,
+        far_clip as f32,
+    );
     match sensor.plugin.as_str() {
         "perspective" => Ok(Camera::Perspective(projection)),
         _ => {

@@ -98,7 +98,8 @@ impl Projection {
     /// The film position (pixels) of a camera-space point, or `None` if it is not in front of the camera.
     #[inline]
     pub fn local_to_film(&self, p: Vec3) -> Option<Vec2> {
-        if !(p.z > 0.0) {
+        // Also rejects NaN depths.
+        if p.z.is_nan() || p.z <= 0.0 {
             return None;
         }
         let x = p.x / (p.z * self.tan_half_x);
@@ -125,7 +126,9 @@ pub fn rigid_camera_to_world(sensor: &ObjectDesc) -> SceneResult<Mat4> {
         return Err(sensor.error("the camera's to_world transform contains non-finite values"));
     }
     if (m.row(3) - Vec4::W).abs().max_element() > 1e-6 {
-        return Err(sensor.error("the camera's to_world transform must be affine (last row 0 0 0 1)"));
+        return Err(
+            sensor.error("the camera's to_world transform must be affine (last row 0 0 0 1)")
+        );
     }
     let r = Mat3::from_mat4(m);
     let gram = r.transpose() * r;

@@ -17,7 +17,11 @@ pub struct ThinLens {
 impl ThinLens {
     /// A thin lens over `projection`. A zero radius behaves as a pinhole.
     pub fn new(projection: Projection, aperture_radius: f32, focus_distance: f32) -> Self {
-        ThinLens { projection, aperture_radius, focus_distance }
+        ThinLens {
+            projection,
+            aperture_radius,
+            focus_distance,
+        }
     }
 
     /// The underlying pinhole projection.

@@ -112,9 +112,8 @@ impl ImageBlock {
     /// corner of the film) to every stored pixel whose centre lies within the filter radius. Returns
     /// false if the sample was rejected because it is not finite.
     pub fn put(&mut self, film_pos: Vec2, value: Rgb, aovs: Option<&AovSample>) -> bool {
-        let aov_ok = aovs.is_none_or(|a| {
-            a.albedo.is_finite() && a.normal.is_finite() && a.depth.is_finite()
-        });
+        let aov_ok = aovs
+            .is_none_or(|a| a.albedo.is_finite() && a.normal.is_finite() && a.depth.is_finite());
         if !(film_pos.is_finite() && value.is_finite() && aov_ok) {
             self.rejected += 1;
             return false;
@@ -134,6 +133,14 @@ impl ImageBlock {
         }
         let values = &values[..self.channels];
         let ext = self.ext_size().as_ivec2();
+        // Samples far outside the stored region touch nothing; bailing out early also keeps the integer
+        // conversions below away from saturation.
+        let reach = self.filter.radius() + 1.0;
+        let lo_bound = self.origin().as_vec2() - Vec2::splat(reach);
+        let hi_bound = (self.origin() + ext).as_vec2() + Vec2::splat(reach);
+        if film_pos.cmplt(lo_bound).any() || film_pos.cmpgt(hi_bound).any() {
+            return true;
+        }
 
         if self.filter.is_box() {
             let p = film_pos.floor().as_ivec2() - self.origin();
@@ -147,7 +154,10 @@ impl ImageBlock {
         let pos = film_pos - self.origin().as_vec2() - Vec2::splat(0.5);
         let r = self.filter.radius();
         let lo = (pos - Vec2::splat(r)).ceil().as_ivec2().max(IVec2::ZERO);
-        let hi = (pos + Vec2::splat(r)).floor().as_ivec2().min(ext - IVec2::ONE);
+        let hi = (pos + Vec2::splat(r))
+            .floor()
+            .as_ivec2()
+            .min(ext - IVec2::ONE);
         if lo.cmpgt(hi).any() {
             return true;
         }
@@ -157,12 +167,8 @@ impl ImageBlock {
         let mut wy = [0.0f32; MAX_TAPS];
         let nx = ((hi.x - lo.x + 1) as usize).min(wx.len());
         let ny = ((hi.y - lo.y + 1) as usize).min(wy.len());
-        for (i, w) in wx[..nx].iter_mut().enumerate() {
-            *w = self.filter.eval((lo.x + i as i32) as f32 - pos.x);
-        }
-        for (j, w) in wy[..ny].iter_mut().enumerate() {
-            *w = self.filter.eval((lo.y + j as i32) as f32 - pos.y);
-        }
+        self.filter.eval_row(lo.x as f32 - pos.x, &mut wx[..nx]);
+        self.filter.eval_row(lo.y as f32 - pos.y, &mut wy[..ny]);
         for (j, &w_y) in wy[..ny].iter().enumerate() {
             if w_y == 0.0 {
                 continue;
@@ -189,7 +195,10 @@ impl ImageBlock {
     /// this block's stored region are dropped (e.g. splats beyond the film's edge). Rejection counts add
     /// up. Both blocks must have the same channels.
     pub fn add_block(&mut self, other: &ImageBlock) {
-        assert_eq!(self.channels, other.channels, "ImageBlock::add_block: AOV layout mismatch");
+        assert_eq!(
+            self.channels, other.channels,
+            "ImageBlock::add_block: AOV layout mismatch"
+        );
         self.rejected += other.rejected;
         let (dst_origin, dst_ext) = (self.origin(), self.ext_size().as_ivec2());
         let (src_origin, src_ext) = (other.origin(), other.ext_size().as_ivec2());
@@ -200,11 +209,16 @@ impl ImageBlock {
         }
         let row_len = (hi.x - lo.x) as usize * self.channels;
         for y in lo.y..hi.y {
-            let d = ((y - dst_origin.y) as usize * dst_ext.x as usize + (lo.x - dst_origin.x) as usize)
+            let d = ((y - dst_origin.y) as usize * dst_ext.x as usize
+                + (lo.x - dst_origin.x) as usize)
                 * self.channels;
-            let s = ((y - src_origin.y) as usize * src_ext.x as usize + (lo.x - src_origin.x) as usize)
+            let s = ((y - src_origin.y) as usize * src_ext.x as usize
+                + (lo.x - src_origin.x) as usize)
                 * other.channels;
-            for (a, b) in self.data[d..d + row_len].iter_mut().zip(&other.data[s..s + row_len]) {
+            for (a, b) in self.data[d..d + row_len]
+                .iter_mut()
+                .zip(&other.data[s..s + row_len])
+            {
                 *a += *b;
             }
         }

@@ -62,7 +62,9 @@ impl FilmSpec {
 /// Reads `width`/`height` (768×576), the `rfilter` child (Gaussian σ = 0.5), `pixel_format` (rgb or
 /// rgba), and `crop_offset_x/y`, `crop_width/height` (default: the whole film).
 pub fn film_from_desc(film: Option<&ObjectDesc>) -> SceneResult<FilmSpec> {
-    let Some(d) = film else { return Ok(FilmSpec::default()) };
+    let Some(d) = film else {
+        return Ok(FilmSpec::default());
+    };
     if !matches!(d.plugin.as_str(), "hdrfilm" | "ldrfilm") {
         return Err(d.error(format!(
             "unsupported film type '{}' (supported: hdrfilm, ldrfilm)",
@@ -88,13 +90,20 @@ pub fn film_from_desc(film: Option<&ObjectDesc>) -> SceneResult<FilmSpec> {
         dim("crop_width", (width - crop_offset.x) as i64, 1, MAX_SIDE)?,
         dim("crop_height", (height - crop_offset.y) as i64, 1, MAX_SIDE)?,
     );
-    if (crop_offset + crop_size).cmpgt(UVec2::new(width, height)).any() {
+    if (crop_offset + crop_size)
+        .cmpgt(UVec2::new(width, height))
+        .any()
+    {
         return Err(d.error(format!(
             "the crop window (offset {}x{}, size {}x{}) does not fit in the {width}x{height} film",
             crop_offset.x, crop_offset.y, crop_size.x, crop_size.y
         )));
     }
-    let pixel_format = match d.string_or("pixel_format", "rgb")?.to_ascii_lowercase().as_str() {
+    let pixel_format = match d
+        .string_or("pixel_format", "rgb")?
+        .to_ascii_lowercase()
+        .as_str()
+    {
         "rgb" => PixelFormat::Rgb,
         "rgba" => PixelFormat::Rgba,
         other => {
@@ -109,12 +118,22 @@ pub fn film_from_desc(film: Option<&ObjectDesc>) -> SceneResult<FilmSpec> {
         return Err(extra.object.error("a film can have only one <rfilter>"));
     }
     let filter = filter_from_desc(rfilter.map(|c| c.object.as_ref()))?;
-    Ok(FilmSpec { width, height, crop_offset, crop_size, filter, pixel_format })
+    Ok(FilmSpec {
+        width,
+        height,
+        crop_offset,
+        crop_size,
+        filter,
+        pixel_format,
+    })
 }
 
 /// Names of the AOV layers a film with AOVs develops, with their channel names, in storage order.
-pub const AOV_LAYERS: [(&str, &[&str]); 3] =
-    [("albedo", &["R", "G", "B"]), ("normal", &["X", "Y", "Z"]), ("depth", &["Z"])];
+pub const AOV_LAYERS: [(&str, &[&str]); 3] = [
+    ("albedo", &["R", "G", "B"]),
+    ("normal", &["X", "Y", "Z"]),
+    ("depth", &["Z"]),
+];
 
 /// The film being rendered: accumulated Σw·L and Σw for every pixel of the crop window. Render workers
 /// fill their own [`ImageBlock`]s (see [`Film::create_block`]) and the caller merges them in a fixed
@@ -191,7 +210,10 @@ impl Film {
         let (w, h) = (self.width(), self.height());
         let mut image = Image::new(w, h);
         let mut layers: Vec<ImageLayer> = if self.has_aovs() {
-            AOV_LAYERS.iter().map(|(name, ch)| ImageLayer::new(name, ch, w, h)).collect()
+            AOV_LAYERS
+                .iter()
+                .map(|(name, ch)| ImageLayer::new(name, ch, w, h))
+                .collect()
         } else {
             Vec::new()
         };
@@ -205,7 +227,11 @@ impl Film {
                 let weight = c[3];
                 let inv = if weight != 0.0 { 1.0 / weight } else { 0.0 };
                 let i = (y * w + x) as usize;
-                image.rgb[i] = [(c[0] * inv) as f32, (c[1] * inv) as f32, (c[2] * inv) as f32];
+                image.rgb[i] = [
+                    (c[0] * inv) as f32,
+                    (c[1] * inv) as f32,
+                    (c[2] * inv) as f32,
+                ];
                 let mut k = 4;
                 for layer in &mut layers {
                     let n = layer.channels.len();

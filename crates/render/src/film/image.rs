@@ -2,6 +2,7 @@
 //! pixel statistics the render loop and the reference comparisons need.
 
 use crate::color::linear_to_srgb;
+use serde::Serialize;
 use std::io;
 use std::path::Path;
 
@@ -38,6 +39,25 @@ impl ImageLayer {
     }
 }
 
+/// Summary statistics of an image's RGB, ready to be written to a JSON run record.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct ImageStats {
+    /// Width in pixels.
+    pub width: u32,
+    /// Height in pixels.
+    pub height: u32,
+    /// Mean linear RGB.
+    pub mean_rgb: [f64; 3],
+    /// Mean luminance (Rec. 709 weights).
+    pub mean_luminance: f64,
+    /// Per-channel minimum over finite values (0 for an image without finite values).
+    pub min_rgb: [f32; 3],
+    /// Per-channel maximum over finite values.
+    pub max_rgb: [f32; 3],
+    /// Number of non-finite RGB values (0 after [`Image::sanitize`]).
+    pub non_finite: usize,
+}
+
 /// A linear RGB image (row 0 = top) with optional extra layers of the same size.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Image {
@@ -52,19 +72,30 @@ pub struct Image {
 }
 
 fn invalid(path: &Path, msg: impl std::fmt::Display) -> io::Error {
-    io::Error::new(io::ErrorKind::InvalidData, format!("{}: {msg}", path.display()))
+    io::Error::new(
+        io::ErrorKind::InvalidData,
+        format!("{}: {msg}", path.display()),
+    )
 }
 
 /// Canonical order of channels within a layer when reading (EXR stores them alphabetically).
 fn channel_rank(name: &str) -> (usize, String) {
     let order = ["R", "G", "B", "A", "X", "Y", "Z", "U", "V", "W"];
-    (order.iter().position(|o| *o == name).unwrap_or(order.len()), name.to_string())
+    (
+        order.iter().position(|o| *o == name).unwrap_or(order.len()),
+        name.to_string(),
+    )
 }
 
 impl Image {
     /// A black image without layers.
     pub fn new(width: u32, height: u32) -> Self {
-        Image { width, height, rgb: vec![[0.0; 3]; width as usize * height as usize], layers: Vec::new() }
+        Image {
+            width,
+            height,
+            rgb: vec![[0.0; 3]; width as usize * height as usize],
+            layers: Vec::new(),
+        }
     }
 
     /// Number of pixels.
@@ -94,6 +125,36 @@ impl Image {
         sum.map(|s| s / n)
     }
 
+    /// Mean, luminance, range and non-finite count of the RGB channels.
+    pub fn stats(&self) -> ImageStats {
+        let mean_rgb = self.mean_rgb();
+        let mut min_rgb = [f32::INFINITY; 3];
+        let mut max_rgb = [f32::NEG_INFINITY; 3];
+        let mut non_finite = 0;
+        for p in &self.rgb {
+            for c in 0..3 {
+                if p[c].is_finite() {
+                    min_rgb[c] = min_rgb[c].min(p[c]);
+                    max_rgb[c] = max_rgb[c].max(p[c]);
+                } else {
+                    non_finite += 1;
+                }
+            }
+        }
+        let finite_or_zero = |v: [f32; 3]| v.map(|x| if x.is_finite() { x } else { 0.0 });
+        ImageStats {
+            width: self.width,
+            height: self.height,
+            mean_rgb,
+            mean_luminance: 0.212671 * mean_rgb[0]
+                + 0.715160 * mean_rgb[1]
+                + 0.072169 * mean_rgb[2],
+            min_rgb: finite_or_zero(min_rgb),
+            max_rgb: finite_or_zero(max_rgb),
+            non_finite,
+        }
+    }
+
     /// Replaces every non-finite value (RGB and layers) by 0, so no NaN/Inf ever leaves the renderer.
     /// Returns how many values were replaced.
     pub fn sanitize(&mut self) -> usize {
@@ -105,7 +166,10 @@ impl Image {
             }
         };
         self.rgb.iter_mut().flatten().for_each(&mut fix);
-        self.layers.iter_mut().flat_map(|l| l.data.iter_mut()).for_each(&mut fix);
+        self.layers
+            .iter_mut()
+            .flat_map(|l| l.data.iter_mut())
+            .for_each(&mut fix);
         fixed
     }
 
@@ -114,7 +178,11 @@ impl Image {
             self.width == other.width
                 && self.height == other.height
                 && self.layers.len() == other.layers.len()
-                && self.layers.iter().zip(&other.layers).all(|(a, b)| a.channels == b.channels),
+                && self
+                    .layers
+                    .iter()
+                    .zip(&other.layers)
+                    .all(|(a, b)| a.channels == b.channels),
             "image arithmetic needs images of the same size and layers"
         );
     }
@@ -136,8 +204,14 @@ impl Image {
 
     /// Multiplies every value (layers included) by `scale`.
     pub fn scale(&mut self, scale: f64) {
-        self.rgb.iter_mut().flatten().for_each(|v| *v = (*v as f64 * scale) as f32);
-        self.layers.iter_mut().flat_map(|l| l.data.iter_mut()).for_each(|v| *v = (*v as f64 * scale) as f32);
+        self.rgb
+            .iter_mut()
+            .flatten()
+            .for_each(|v| *v = (*v as f64 * scale) as f32);
+        self.layers
+            .iter_mut()
+            .flat_map(|l| l.data.iter_mut())
+            .for_each(|v| *v = (*v as f64 * scale) as f32);
     }
 
     /// The per-pixel mean of several images of the same size and layers (e.g. independent render
@@ -146,7 +220,11 @@ impl Image {
         let first = images.first()?;
         let n = images.len() as f64;
         let mut rgb = vec![[0.0f64; 3]; first.pixel_count()];
-        let mut layers: Vec<Vec<f64>> = first.layers.iter().map(|l| vec![0.0; l.data.len()]).collect();
+        let mut layers: Vec<Vec<f64>> = first
+            .layers
+            .iter()
+            .map(|l| vec![0.0; l.data.len()])
+            .collect();
         for img in images {
             first.assert_same_shape(img);
             for (a, b) in rgb.iter_mut().zip(&img.rgb) {
@@ -176,7 +254,9 @@ impl Image {
     /// channels as `<layer>.<channel>` (see [`ImageLayer`]).
     pub fn write_exr(&self, path: &Path) -> io::Result<()> {
         use exr::prelude::traits::*;
-        use exr::prelude::{AnyChannel, AnyChannels, Encoding, FlatSamples, Layer, LayerAttributes, SmallVec};
+        use exr::prelude::{
+            AnyChannel, AnyChannels, Encoding, FlatSamples, Layer, LayerAttributes, SmallVec,
+        };
         let (w, h) = (self.width as usize, self.height as usize);
         if w == 0 || h == 0 {
             return Err(invalid(path, "cannot write an empty image"));
@@ -184,20 +264,29 @@ impl Image {
         let mut list: Vec<AnyChannel<FlatSamples>> = (0..3)
             .map(|c| {
                 let name = ["R", "G", "B"][c];
-                AnyChannel::new(name, FlatSamples::F32(self.rgb.iter().map(|p| p[c]).collect()))
+                AnyChannel::new(
+                    name,
+                    FlatSamples::F32(self.rgb.iter().map(|p| p[c]).collect()),
+                )
             })
             .collect();
         for layer in &self.layers {
             let n = layer.channels.len();
             for c in 0..n {
                 let samples: Vec<f32> = layer.data.iter().skip(c).step_by(n).copied().collect();
-                list.push(AnyChannel::new(layer.exr_channel_name(c).as_str(), FlatSamples::F32(samples)));
+                list.push(AnyChannel::new(
+                    layer.exr_channel_name(c).as_str(),
+                    FlatSamples::F32(samples),
+                ));
             }
         }
         let mut names: Vec<String> = list.iter().map(|c| c.name.to_string()).collect();
         names.sort();
         if let Some(dup) = names.windows(2).find(|p| p[0] == p[1]) {
-            return Err(invalid(path, format!("duplicate channel name '{}'", dup[0])));
+            return Err(invalid(
+                path,
+                format!("duplicate channel name '{}'", dup[0]),
+            ));
         }
         let layer = Layer::new(
             (w, h),
@@ -239,7 +328,10 @@ impl Image {
                     name = format!("{p}.{name}");
                 }
                 if ch.sampling != Vec2(1, 1) {
-                    return Err(invalid(path, format!("subsampled channel '{name}' is not supported")));
+                    return Err(invalid(
+                        path,
+                        format!("subsampled channel '{name}' is not supported"),
+                    ));
                 }
                 channels.push((name, ch.sample_data.values_as_f32().collect()));
             }
@@ -303,7 +395,11 @@ impl Image {
             .iter()
             .flatten()
             .map(|&v| {
-                let v = if v.is_finite() { (v * scale).clamp(0.0, 1.0) } else { 0.0 };
+                let v = if v.is_finite() {
+                    (v * scale).clamp(0.0, 1.0)
+                } else {
+                    0.0
+                };
                 (linear_to_srgb(v) * 255.0 + 0.5).floor().clamp(0.0, 255.0) as u8
             })
             .collect()

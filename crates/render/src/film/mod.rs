@@ -14,4 +14,4 @@ mod image;
 pub use block::{AovSample, ImageBlock};
 pub use film::{film_from_desc, Film, FilmSpec, PixelFormat, AOV_LAYERS};
 pub use filter::{filter_from_desc, ReconstructionFilter, MAX_FILTER_RADIUS};
-pub use image::{Image, ImageLayer};
+pub use image::{Image, ImageLayer, ImageStats};
