@@ -1,0 +1,94 @@
+//! The interface every guiding distribution implements.
+
+use glam::Vec3;
+use serde::{Deserialize, Serialize};
+
+/// An axis-aligned box (the scene bounds a distribution may cover).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Aabb3 {
+    /// Lower corner.
+    pub min: Vec3,
+    /// Upper corner.
+    pub max: Vec3,
+}
+
+/// One path segment recorded for training (the design notes' "training data", §3 of
+/// `focal-guiding-octree.md`): a segment leaving a non-delta vertex that hit a surface.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct TrainingSegment {
+    /// The vertex x_k the direction was sampled at.
+    pub origin: Vec3,
+    /// The sampled unit direction ω.
+    pub direction: Vec3,
+    /// Distance to the next vertex x_{k+1}.
+    pub distance: f32,
+    /// The segment's scalar contribution c: the RGB mean of throughput × sampling weight × radiance
+    /// returned through ω (MIS-weighted emission at x_{k+1} plus everything deeper, excluding NEE at x_k).
+    pub weight: f32,
+    /// The full sampling pdf p_mix(ω) used at x_k (BSDF/guide mixture, or BSDF alone when unguided).
+    pub pdf: f32,
+    /// True if the endpoint x_{k+1} is glossy (min roughness < 0.3): a virtual image is possible, so the
+    /// whole forward line is a converging candidate and the backward line a diverging one.
+    pub glossy_endpoint: bool,
+}
+
+/// A direction proposed by a guide.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct GuideSample {
+    /// Unit direction.
+    pub direction: Vec3,
+    /// Its solid-angle pdf under the same `normal` argument (exactly [`GuidingDistribution::pdf`]).
+    pub pdf: f32,
+}
+
+/// What the renderer tells a distribution when it updates it between iterations.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct UpdateContext {
+    /// Index of the iteration whose segments are passed (0 = the first, unguided one).
+    pub iteration: u32,
+    /// Number of training iterations planned (the final render iteration excluded), for schedules such as
+    /// "iterative narrowing from ⌊2N/3⌋".
+    pub training_iterations: u32,
+    /// True if the next iteration is the final render (no more training follows).
+    pub final_build: bool,
+    /// Worker threads the update may use (0 = all).
+    pub threads: usize,
+}
+
+/// Statistics of one update, for the render's JSON record.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct UpdateStats {
+    /// Segments consumed.
+    pub segments: u64,
+    /// Model size after the update (octree leaves, mixture components, ...).
+    pub model_size: u64,
+    /// Wall time of the update in seconds.
+    pub seconds: f64,
+    /// Free-form details (per method).
+    pub details: Vec<(String, f64)>,
+}
+
+/// A learned spatial density used to guide path directions.
+///
+/// `normal`: when the caller will only use directions in the hemisphere around `normal` (an opaque
+/// reflective BSDF), a distribution may restrict sampling to that hemisphere; it must then return the pdf
+/// of that restricted sampler, and the caller must pass the same `normal` to `pdf`. `None` means the whole
+/// sphere.
+pub trait GuidingDistribution: Send + Sync {
+    /// Short method name ("octree", "gmm").
+    fn name(&self) -> &'static str;
+
+    /// Samples a direction from `x` with three uniform numbers; `None` if nothing can be sampled (e.g. an
+    /// untrained distribution or an empty hemisphere).
+    fn sample(&self, x: Vec3, normal: Option<Vec3>, u: [f32; 3]) -> Option<GuideSample>;
+
+    /// The exact solid-angle pdf of [`GuidingDistribution::sample`] producing unit direction `d` from `x`.
+    fn pdf(&self, x: Vec3, normal: Option<Vec3>, d: Vec3) -> f32;
+
+    /// Learns from one iteration's segments (given in a deterministic order) and rebuilds the model.
+    /// Deterministic: the same segments and context give a bit-identical model for any `threads`.
+    fn update(&mut self, segments: &[TrainingSegment], ctx: &UpdateContext) -> UpdateStats;
+
+    /// A versioned binary snapshot of the model (see the implementation's `load`).
+    fn save(&self) -> Vec<u8>;
+}
