@@ -117,7 +117,10 @@ pub struct TestRng {
 impl TestRng {
     /// A generator for the given seed.
     pub fn new(seed: u64) -> Self {
-        let mut r = TestRng { state: 0, inc: (seed << 1) | 1 };
+        let mut r = TestRng {
+            state: 0,
+            inc: (seed << 1) | 1,
+        };
         r.next_u32();
         r.state = r.state.wrapping_add(seed ^ 0x853c_49e6_748f_ea9b);
         r.next_u32();
@@ -127,7 +130,9 @@ impl TestRng {
     /// Next 32 random bits.
     pub fn next_u32(&mut self) -> u32 {
         let old = self.state;
-        self.state = old.wrapping_mul(6_364_136_223_846_793_005).wrapping_add(self.inc);
+        self.state = old
+            .wrapping_mul(6_364_136_223_846_793_005)
+            .wrapping_add(self.inc);
         let xorshifted = (((old >> 18) ^ old) >> 27) as u32;
         let rot = (old >> 59) as u32;
         xorshifted.rotate_right(rot)
@@ -192,9 +197,24 @@ fn integrate_1d(mut f: impl FnMut(f64) -> f64, a: f64, b: f64, panels: usize, ep
 }
 
 /// ∫ pdf dω over the part of the sphere with cos θ ∈ [z0, z1] and φ ∈ [phi0, phi1].
-fn integrate_patch(pdf: &impl Fn(Vec3) -> f64, z0: f64, z1: f64, phi0: f64, phi1: f64, eps: f64) -> f64 {
+fn integrate_patch(
+    pdf: &impl Fn(Vec3) -> f64,
+    z0: f64,
+    z1: f64,
+    phi0: f64,
+    phi1: f64,
+    eps: f64,
+) -> f64 {
     integrate_1d(
-        |phi| integrate_1d(|z| pdf(direction(z, phi)).max(0.0), z0, z1, 4, eps / (phi1 - phi0)),
+        |phi| {
+            integrate_1d(
+                |z| pdf(direction(z, phi)).max(0.0),
+                z0,
+                z1,
+                4,
+                eps / (phi1 - phi0),
+            )
+        },
         phi0,
         phi1,
         4,
@@ -203,7 +223,12 @@ fn integrate_patch(pdf: &impl Fn(Vec3) -> f64, z0: f64, z1: f64, phi0: f64, phi1
 }
 
 /// Expected probability mass of every (θ, φ) bin, θ-major.
-fn bin_masses(pdf: &impl Fn(Vec3) -> f64, theta_bins: usize, phi_bins: usize, tol: f64) -> Vec<f64> {
+fn bin_masses(
+    pdf: &impl Fn(Vec3) -> f64,
+    theta_bins: usize,
+    phi_bins: usize,
+    tol: f64,
+) -> Vec<f64> {
     let mut masses = Vec::with_capacity(theta_bins * phi_bins);
     // Absolute accuracy goal per bin, relative to a uniform density's share.
     let eps = tol * 4.0 * PI / (theta_bins * phi_bins) as f64;
@@ -225,7 +250,9 @@ fn bin_masses(pdf: &impl Fn(Vec3) -> f64, theta_bins: usize, phi_bins: usize, to
 /// as a microfacet lobe with α = 0.05.
 pub fn sphere_integral(pdf: impl Fn(Vec3) -> f64) -> f64 {
     let o = Chi2Options::default();
-    bin_masses(&pdf, o.theta_bins, o.phi_bins, o.quadrature_tolerance).iter().sum()
+    bin_masses(&pdf, o.theta_bins, o.phi_bins, o.quadrature_tolerance)
+        .iter()
+        .sum()
 }
 
 /// The (θ, φ) bin of a direction (θ-major index).
@@ -279,24 +306,46 @@ pub fn chi2_sphere_test(
     for _ in 0..opts.samples {
         let u2 = Vec2::new(rng.next_f32(), rng.next_f32());
         let u1 = rng.next_f32();
-        match sample(u2, u1) {
-            None => observed[nbins] += 1.0,
-            Some((_, w)) if w == 0.0 => observed[nbins] += 1.0,
-            Some((d, w)) if w == 1.0 => match bin_of(d, opts.theta_bins, opts.phi_bins) {
+        let Some((d, w)) = sample(u2, u1) else {
+            observed[nbins] += 1.0;
+            continue;
+        };
+        if w == 0.0 {
+            observed[nbins] += 1.0;
+        } else if w == 1.0 {
+            match bin_of(d, opts.theta_bins, opts.phi_bins) {
                 Some(b) => observed[b] += 1.0,
-                None => return fail(format!("sampled a non-unit direction {d:?}"), f64::NAN, f64::NAN),
-            },
-            Some((d, w)) => {
-                return fail(format!("sample weight {w} (direction {d:?}) is neither 0 nor 1"), f64::NAN, f64::NAN)
+                None => {
+                    return fail(
+                        format!("sampled a non-unit direction {d:?}"),
+                        f64::NAN,
+                        f64::NAN,
+                    )
+                }
             }
+        } else {
+            return fail(
+                format!("sample weight {w} (direction {d:?}) is neither 0 nor 1"),
+                f64::NAN,
+                f64::NAN,
+            );
         }
     }
     let binned_fraction = 1.0 - observed[nbins] / n;
 
-    let masses = bin_masses(&pdf, opts.theta_bins, opts.phi_bins, opts.quadrature_tolerance);
+    let masses = bin_masses(
+        &pdf,
+        opts.theta_bins,
+        opts.phi_bins,
+        opts.quadrature_tolerance,
+    );
     let pdf_integral: f64 = masses.iter().sum();
     if !pdf_integral.is_finite() {
-        return fail("the pdf integral is not finite".into(), pdf_integral, binned_fraction);
+        return fail(
+            "the pdf integral is not finite".into(),
+            pdf_integral,
+            binned_fraction,
+        );
     }
 
     // Total mass check.
@@ -328,11 +377,15 @@ pub fn chi2_sphere_test(
     } else if pool_o > 0.0 {
         if pool_e > 0.0 && !cells.is_empty() {
             // Fold the residual pool into the smallest cell so that its samples are still tested.
-            let k = (0..cells.len()).min_by(|&a, &b| cells[a].0.total_cmp(&cells[b].0)).unwrap_or(0);
+            let k = (0..cells.len())
+                .min_by(|&a, &b| cells[a].0.total_cmp(&cells[b].0))
+                .unwrap_or(0);
             cells[k].0 += pool_e;
             cells[k].1 += pool_o;
         } else if pool_o > (5.0 * opts.min_expected).max(1e-4 * n) {
-            messages.push(format!("{pool_o} samples fell where the pdf is (nearly) zero"));
+            messages.push(format!(
+                "{pool_o} samples fell where the pdf is (nearly) zero"
+            ));
         }
     }
 
@@ -347,7 +400,9 @@ pub fn chi2_sphere_test(
         }
     };
     if p_value < threshold {
-        messages.push(format!("p-value {p_value:.3e} below the threshold {threshold:.3e}"));
+        messages.push(format!(
+            "p-value {p_value:.3e} below the threshold {threshold:.3e}"
+        ));
     }
     Chi2Result {
         passed: messages.is_empty(),
@@ -377,7 +432,11 @@ mod tests {
 
     #[test]
     fn accepts_a_correct_sampler() {
-        let r = chi2_sphere_test(|u, _| Some((cosine_sample(u), 1.0)), cosine_pdf, Chi2Options::default());
+        let r = chi2_sphere_test(
+            |u, _| Some((cosine_sample(u), 1.0)),
+            cosine_pdf,
+            Chi2Options::default(),
+        );
         assert!(r.passed, "{r}");
         assert!((r.pdf_integral - 1.0).abs() < 1e-4, "{r}");
     }
@@ -417,14 +476,26 @@ mod tests {
     fn accounts_for_unbinned_mass() {
         // 30 % of the samples go to a "delta lobe": the pdf integrates to 0.7.
         let r = chi2_sphere_test(
-            |u, u1| if u1 < 0.3 { Some((Vec3::Z, 0.0)) } else { Some((cosine_sample(u), 1.0)) },
+            |u, u1| {
+                if u1 < 0.3 {
+                    Some((Vec3::Z, 0.0))
+                } else {
+                    Some((cosine_sample(u), 1.0))
+                }
+            },
             |d| 0.7 * cosine_pdf(d),
             Chi2Options::default(),
         );
         assert!(r.passed, "{r}");
         // The same samples against a pdf that forgets the lost mass must fail.
         let r = chi2_sphere_test(
-            |u, u1| if u1 < 0.3 { None } else { Some((cosine_sample(u), 1.0)) },
+            |u, u1| {
+                if u1 < 0.3 {
+                    None
+                } else {
+                    Some((cosine_sample(u), 1.0))
+                }
+            },
             cosine_pdf,
             Chi2Options::default(),
         );

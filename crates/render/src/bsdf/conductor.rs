@@ -25,10 +25,22 @@ impl Conductor {
             * self.specular_reflectance.eval(ctx.uv)
     }
 
-    pub(super) fn sample(&self, ctx: &BsdfContext, wi: Vec3, _u1: f32, _u2: Vec2) -> Option<BsdfSample> {
+    pub(super) fn sample(
+        &self,
+        ctx: &BsdfContext,
+        wi: Vec3,
+        _u1: f32,
+        _u2: Vec2,
+    ) -> Option<BsdfSample> {
         if wi.z <= 0.0 {
             return None;
         }
-        Some(BsdfSample { wo: reflect(wi), pdf: 1.0, weight: self.reflectance(ctx, wi.z), eta: 1.0, delta: true })
+        Some(BsdfSample {
+            wo: reflect(wi),
+            pdf: 1.0,
+            weight: self.reflectance(ctx, wi.z),
+            eta: 1.0,
+            delta: true,
+        })
     }
 }

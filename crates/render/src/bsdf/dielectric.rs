@@ -20,7 +20,13 @@ pub struct Dielectric {
 impl Dielectric {
     /// Samples reflection with probability F and refraction otherwise. Refracted radiance is scaled by
     /// 1/η² (radiance transport, as Mitsuba 3 in `TransportMode::Radiance`).
-    pub(super) fn sample(&self, ctx: &BsdfContext, wi: Vec3, u1: f32, _u2: Vec2) -> Option<BsdfSample> {
+    pub(super) fn sample(
+        &self,
+        ctx: &BsdfContext,
+        wi: Vec3,
+        u1: f32,
+        _u2: Vec2,
+    ) -> Option<BsdfSample> {
         if wi.z == 0.0 {
             return None;
         }

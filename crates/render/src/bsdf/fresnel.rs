@@ -24,7 +24,11 @@ pub struct DielectricFresnel {
 pub fn fresnel_dielectric(cos_theta_i: f32, eta: f32) -> DielectricFresnel {
     let outside = cos_theta_i >= 0.0;
     let rcp_eta = 1.0 / eta;
-    let (eta_it, eta_ti) = if outside { (eta, rcp_eta) } else { (rcp_eta, eta) };
+    let (eta_it, eta_ti) = if outside {
+        (eta, rcp_eta)
+    } else {
+        (rcp_eta, eta)
+    };
     let cos_theta_t_sqr = 1.0 - (1.0 - cos_theta_i * cos_theta_i) * eta_ti * eta_ti;
     let cos_i = cos_theta_i.abs();
     let cos_t = cos_theta_t_sqr.max(0.0).sqrt();
@@ -38,7 +42,12 @@ pub fn fresnel_dielectric(cos_theta_i: f32, eta: f32) -> DielectricFresnel {
         (0.5 * (a_s * a_s + a_p * a_p)).min(1.0)
     };
     let cos_theta_t = if cos_theta_i >= 0.0 { -cos_t } else { cos_t };
-    DielectricFresnel { f, cos_theta_t, eta_it, eta_ti }
+    DielectricFresnel {
+        f,
+        cos_theta_t,
+        eta_it,
+        eta_ti,
+    }
 }
 
 /// Unpolarised Fresnel reflectance of a conductor with complex relative IOR `eta + i k`, per channel,
@@ -49,7 +58,9 @@ pub fn fresnel_conductor(cos_theta_i: f32, eta: Rgb, k: Rgb) -> Rgb {
     let s2 = 1.0 - c2;
     let s4 = s2 * s2;
     let temp_1 = eta * eta - k * k - Rgb::splat(s2);
-    let a2pb2 = (temp_1 * temp_1 + 4.0 * k * k * eta * eta).max(Rgb::ZERO).powf(0.5);
+    let a2pb2 = (temp_1 * temp_1 + 4.0 * k * k * eta * eta)
+        .max(Rgb::ZERO)
+        .powf(0.5);
     let a = (0.5 * (a2pb2 + temp_1)).max(Rgb::ZERO).powf(0.5);
     let term_1 = a2pb2 + Rgb::splat(c2);
     let term_2 = 2.0 * cos_theta_i * a;
@@ -135,7 +146,10 @@ mod tests {
                 let mu = (i as f64 + 0.5) / n as f64;
                 s += fresnel_dielectric(mu as f32, eta).f as f64 * mu * 2.0 / n as f64;
             }
-            assert!((s - fresnel_diffuse_reflectance(eta) as f64).abs() < 5e-3, "{eta}: {s}");
+            assert!(
+                (s - fresnel_diffuse_reflectance(eta) as f64).abs() < 5e-3,
+                "{eta}: {s}"
+            );
         }
     }
 }

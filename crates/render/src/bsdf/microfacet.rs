@@ -34,12 +34,21 @@ const INV_SQRT_PI: f32 = 0.564_189_6;
 impl Microfacet {
     /// A distribution; roughness is clamped to 1e-4 as in Mitsuba.
     pub fn new(kind: MicrofacetKind, alpha_u: f32, alpha_v: f32, sample_visible: bool) -> Self {
-        Microfacet { kind, alpha_u: alpha_u.max(1e-4), alpha_v: alpha_v.max(1e-4), sample_visible }
+        Microfacet {
+            kind,
+            alpha_u: alpha_u.max(1e-4),
+            alpha_v: alpha_v.max(1e-4),
+            sample_visible,
+        }
     }
 
     /// The same distribution with both roughnesses scaled by `s`.
     pub fn scaled(&self, s: f32) -> Self {
-        Microfacet { alpha_u: self.alpha_u * s, alpha_v: self.alpha_v * s, ..*self }
+        Microfacet {
+            alpha_u: self.alpha_u * s,
+            alpha_v: self.alpha_v * s,
+            ..*self
+        }
     }
 
     /// The smaller of the two roughnesses.
@@ -59,7 +68,9 @@ impl Microfacet {
         let xu = m.x / au;
         let yv = m.y / av;
         let result = match self.kind {
-            MicrofacetKind::Beckmann => (-(xu * xu + yv * yv) / cos2).exp() / (PI * au * av * cos2 * cos2),
+            MicrofacetKind::Beckmann => {
+                (-(xu * xu + yv * yv) / cos2).exp() / (PI * au * av * cos2 * cos2)
+            }
             MicrofacetKind::Ggx => {
                 let t = xu * xu + yv * yv + cos2;
                 1.0 / (PI * au * av * t * t)
@@ -130,7 +141,10 @@ impl Microfacet {
         let wi_p = Vec3::new(self.alpha_u * wi.x, self.alpha_v * wi.y, wi.z).normalize();
         let sin_theta = (1.0 - wi_p.z * wi_p.z).max(0.0).sqrt();
         let (sin_phi, cos_phi) = if sin_theta > 1e-7 {
-            ((wi_p.y / sin_theta).clamp(-1.0, 1.0), (wi_p.x / sin_theta).clamp(-1.0, 1.0))
+            (
+                (wi_p.y / sin_theta).clamp(-1.0, 1.0),
+                (wi_p.x / sin_theta).clamp(-1.0, 1.0),
+            )
         } else {
             (0.0, 1.0)
         };
@@ -152,10 +166,14 @@ impl Microfacet {
                 let maxval = erf(cot_theta_i);
                 let u = u.clamp(Vec2::splat(1e-6), Vec2::splat(1.0 - 1e-6));
                 let mut x = maxval - (maxval + 1.0) * erf((-u.x.ln()).sqrt());
-                let target = u.x * (1.0 + maxval + INV_SQRT_PI * tan_theta_i * (-cot_theta_i * cot_theta_i).exp());
+                let target = u.x
+                    * (1.0
+                        + maxval
+                        + INV_SQRT_PI * tan_theta_i * (-cot_theta_i * cot_theta_i).exp());
                 for _ in 0..3 {
                     let slope = erfinv(x);
-                    let value = 1.0 + x + INV_SQRT_PI * tan_theta_i * (-slope * slope).exp() - target;
+                    let value =
+                        1.0 + x + INV_SQRT_PI * tan_theta_i * (-slope * slope).exp() - target;
                     let derivative = 1.0 - slope * tan_theta_i;
                     x -= value / derivative;
                 }
@@ -212,7 +230,8 @@ pub fn erf(x: f32) -> f32 {
                 + t * (0.096_784_18
                     + t * (-0.186_288_06
                         + t * (0.278_868_07
-                            + t * (-1.135_203_98 + t * (1.488_515_87 + t * (-0.822_152_23 + t * 0.170_872_77))))))));
+                            + t * (-1.135_203_98
+                                + t * (1.488_515_87 + t * (-0.822_152_23 + t * 0.170_872_77))))))));
     let erfc = t * poly.exp();
     (if x >= 0.0 { 1.0 - erfc } else { erfc - 1.0 }) as f32
 }
@@ -224,14 +243,32 @@ pub fn erfinv(x: f32) -> f32 {
     let p = if w < 5.0 {
         w -= 2.5;
         let mut p = 2.810_226_4e-8f32;
-        for c in [3.432_739_4e-7, -3.523_387_7e-6, -4.391_506_5e-6, 2.185_808_7e-4, -1.253_725e-3, -4.177_681_6e-3, 0.246_640_73, 1.501_409_4] {
+        for c in [
+            3.432_739_4e-7,
+            -3.523_387_7e-6,
+            -4.391_506_5e-6,
+            2.185_808_7e-4,
+            -1.253_725e-3,
+            -4.177_681_6e-3,
+            0.246_640_73,
+            1.501_409_4,
+        ] {
             p = c + p * w;
         }
         p
     } else {
         w = w.sqrt() - 3.0;
         let mut p = -2.002_142_6e-4f32;
-        for c in [1.009_505_6e-4, 1.349_343_2e-3, -3.673_428_4e-3, 5.739_507_7e-3, -7.622_461e-3, 9.438_870_5e-3, 1.001_674_1, 2.832_976_8] {
+        for c in [
+            1.009_505_6e-4,
+            1.349_343_2e-3,
+            -3.673_428_4e-3,
+            5.739_507_7e-3,
+            -7.622_461e-3,
+            9.438_870_5e-3,
+            1.001_674,
+            2.832_976_8,
+        ] {
             p = c + p * w;
         }
         p

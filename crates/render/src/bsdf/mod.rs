@@ -85,6 +85,12 @@ pub enum Bsdf {
     TwoSided(TwoSided),
 }
 
+/// True for a strictly positive number (false for NaN), for rejecting degenerate samples.
+#[inline]
+pub(crate) fn is_positive(x: f32) -> bool {
+    x > 0.0
+}
+
 /// The mean of a texture's values (Mitsuba's `Texture::mean`), used for sampling weights.
 pub(crate) fn texture_mean(t: &Texture) -> f32 {
     match t {
@@ -153,8 +159,14 @@ impl Bsdf {
     #[inline]
     pub fn has_delta(&self) -> bool {
         match self {
-            Bsdf::Conductor(_) | Bsdf::Dielectric(_) | Bsdf::ThinDielectric(_) | Bsdf::Plastic(_) => true,
-            Bsdf::Diffuse(_) | Bsdf::RoughConductor(_) | Bsdf::RoughDielectric(_) | Bsdf::RoughPlastic(_) => false,
+            Bsdf::Conductor(_)
+            | Bsdf::Dielectric(_)
+            | Bsdf::ThinDielectric(_)
+            | Bsdf::Plastic(_) => true,
+            Bsdf::Diffuse(_)
+            | Bsdf::RoughConductor(_)
+            | Bsdf::RoughDielectric(_)
+            | Bsdf::RoughPlastic(_) => false,
             Bsdf::TwoSided(b) => b.sides.iter().any(Bsdf::has_delta),
         }
     }
@@ -173,7 +185,10 @@ impl Bsdf {
     pub fn min_roughness(&self) -> f32 {
         match self {
             Bsdf::Diffuse(_) => f32::INFINITY,
-            Bsdf::Conductor(_) | Bsdf::Dielectric(_) | Bsdf::ThinDielectric(_) | Bsdf::Plastic(_) => 0.0,
+            Bsdf::Conductor(_)
+            | Bsdf::Dielectric(_)
+            | Bsdf::ThinDielectric(_)
+            | Bsdf::Plastic(_) => 0.0,
             Bsdf::RoughConductor(b) => b.distribution.min_alpha(),
             Bsdf::RoughDielectric(b) => b.distribution.min_alpha(),
             Bsdf::RoughPlastic(b) => b.distribution.min_alpha(),
@@ -188,19 +203,23 @@ impl Bsdf {
             Bsdf::Diffuse(b) => b.reflectance.eval(ctx.uv),
             Bsdf::Conductor(b) => b.reflectance(ctx, 1.0),
             Bsdf::RoughConductor(b) => {
-                fresnel::fresnel_conductor(1.0, b.eta.eval(ctx.uv), b.k.eval(ctx.uv)) * b.specular_reflectance.eval(ctx.uv)
+                fresnel::fresnel_conductor(1.0, b.eta.eval(ctx.uv), b.k.eval(ctx.uv))
+                    * b.specular_reflectance.eval(ctx.uv)
             }
             Bsdf::Dielectric(b) => {
                 let f = fresnel::fresnel_dielectric(1.0, b.eta).f;
-                b.specular_reflectance.eval(ctx.uv) * f + b.specular_transmittance.eval(ctx.uv) * (1.0 - f)
+                b.specular_reflectance.eval(ctx.uv) * f
+                    + b.specular_transmittance.eval(ctx.uv) * (1.0 - f)
             }
             Bsdf::RoughDielectric(b) => {
                 let f = fresnel::fresnel_dielectric(1.0, b.eta).f;
-                b.specular_reflectance.eval(ctx.uv) * f + b.specular_transmittance.eval(ctx.uv) * (1.0 - f)
+                b.specular_reflectance.eval(ctx.uv) * f
+                    + b.specular_transmittance.eval(ctx.uv) * (1.0 - f)
             }
             Bsdf::ThinDielectric(b) => {
                 let r = b.slab_reflectance(1.0);
-                b.specular_reflectance.eval(ctx.uv) * r + b.specular_transmittance.eval(ctx.uv) * (1.0 - r)
+                b.specular_reflectance.eval(ctx.uv) * r
+                    + b.specular_transmittance.eval(ctx.uv) * (1.0 - r)
             }
             Bsdf::Plastic(b) => b.diffuse_reflectance.eval(ctx.uv) + b.specular_albedo(ctx),
             Bsdf::RoughPlastic(b) => b.diffuse_reflectance.eval(ctx.uv) + b.specular_albedo(ctx),
@@ -216,6 +235,10 @@ mod tests {
 
     #[test]
     fn enum_stays_small() {
-        assert!(std::mem::size_of::<Bsdf>() <= 48, "{}", std::mem::size_of::<Bsdf>());
+        assert!(
+            std::mem::size_of::<Bsdf>() <= 48,
+            "{}",
+            std::mem::size_of::<Bsdf>()
+        );
     }
 }

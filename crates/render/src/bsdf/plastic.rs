@@ -3,7 +3,7 @@
 //! internal scattering between base and coating (`fdr_int`); one-sided.
 
 use super::fresnel::{fresnel_dielectric, fresnel_diffuse_reflectance, reflect};
-use super::{texture_mean, BsdfContext, BsdfSample};
+use super::{is_positive, texture_mean, BsdfContext, BsdfSample};
 use crate::color::Rgb;
 use crate::texture::Texture;
 use crate::warp::{square_to_cosine_hemisphere, square_to_cosine_hemisphere_pdf};
@@ -30,7 +30,12 @@ pub struct Plastic {
 
 impl Plastic {
     /// A plastic with precomputed internal reflectance and sampling weights.
-    pub fn new(eta: f32, diffuse_reflectance: Texture, specular_reflectance: Option<Texture>, nonlinear: bool) -> Self {
+    pub fn new(
+        eta: f32,
+        diffuse_reflectance: Texture,
+        specular_reflectance: Option<Texture>,
+        nonlinear: bool,
+    ) -> Self {
         let d_mean = texture_mean(&diffuse_reflectance);
         let s_mean = specular_reflectance.as_ref().map_or(1.0, texture_mean);
         let total = d_mean + s_mean;
@@ -67,7 +72,10 @@ impl Plastic {
     }
 
     pub(super) fn specular_albedo(&self, ctx: &BsdfContext) -> Rgb {
-        let s = self.specular_reflectance.as_ref().map_or(Rgb::ONE, |t| t.eval(ctx.uv));
+        let s = self
+            .specular_reflectance
+            .as_ref()
+            .map_or(Rgb::ONE, |t| t.eval(ctx.uv));
         s * fresnel_dielectric(1.0, self.eta).f
     }
 
@@ -77,7 +85,8 @@ impl Plastic {
         }
         let f_i = fresnel_dielectric(wi.z, self.eta).f;
         let f_o = fresnel_dielectric(wo.z, self.eta).f;
-        self.diffuse(ctx) * (square_to_cosine_hemisphere_pdf(wo) * self.inv_eta_2 * (1.0 - f_i) * (1.0 - f_o))
+        self.diffuse(ctx)
+            * (square_to_cosine_hemisphere_pdf(wo) * self.inv_eta_2 * (1.0 - f_i) * (1.0 - f_o))
     }
 
     pub(super) fn pdf(&self, _ctx: &BsdfContext, wi: Vec3, wo: Vec3) -> f32 {
@@ -88,14 +97,23 @@ impl Plastic {
         square_to_cosine_hemisphere_pdf(wo) * (1.0 - self.prob_specular(f_i))
     }
 
-    pub(super) fn sample(&self, ctx: &BsdfContext, wi: Vec3, u1: f32, u2: Vec2) -> Option<BsdfSample> {
+    pub(super) fn sample(
+        &self,
+        ctx: &BsdfContext,
+        wi: Vec3,
+        u1: f32,
+        u2: Vec2,
+    ) -> Option<BsdfSample> {
         if wi.z <= 0.0 {
             return None;
         }
         let f_i = fresnel_dielectric(wi.z, self.eta).f;
         let prob_specular = self.prob_specular(f_i);
         if u1 < prob_specular {
-            let s = self.specular_reflectance.as_ref().map_or(Rgb::ONE, |t| t.eval(ctx.uv));
+            let s = self
+                .specular_reflectance
+                .as_ref()
+                .map_or(Rgb::ONE, |t| t.eval(ctx.uv));
             return Some(BsdfSample {
                 wo: reflect(wi),
                 pdf: prob_specular,
@@ -107,11 +125,18 @@ impl Plastic {
         let prob_diffuse = 1.0 - prob_specular;
         let wo = square_to_cosine_hemisphere(u2);
         let cos_pdf = square_to_cosine_hemisphere_pdf(wo);
-        if !(cos_pdf > 0.0) || !(prob_diffuse > 0.0) {
+        if !is_positive(cos_pdf) || !is_positive(prob_diffuse) {
             return None;
         }
         let f_o = fresnel_dielectric(wo.z, self.eta).f;
-        let weight = self.diffuse(ctx) * (self.inv_eta_2 * (1.0 - f_i) * (1.0 - f_o) / prob_diffuse);
-        Some(BsdfSample { wo, pdf: cos_pdf * prob_diffuse, weight, eta: 1.0, delta: false })
+        let weight =
+            self.diffuse(ctx) * (self.inv_eta_2 * (1.0 - f_i) * (1.0 - f_o) / prob_diffuse);
+        Some(BsdfSample {
+            wo,
+            pdf: cos_pdf * prob_diffuse,
+            weight,
+            eta: 1.0,
+            delta: false,
+        })
     }
 }

@@ -3,7 +3,7 @@
 
 use super::fresnel::{fresnel_conductor, reflect_about};
 use super::microfacet::Microfacet;
-use super::{BsdfContext, BsdfSample};
+use super::{is_positive, BsdfContext, BsdfSample};
 use crate::color::Rgb;
 use crate::texture::Texture;
 use glam::{Vec2, Vec3};
@@ -23,7 +23,8 @@ pub struct RoughConductor {
 
 impl RoughConductor {
     fn fresnel(&self, ctx: &BsdfContext, cos_theta: f32) -> Rgb {
-        fresnel_conductor(cos_theta, self.eta.eval(ctx.uv), self.k.eval(ctx.uv)) * self.specular_reflectance.eval(ctx.uv)
+        fresnel_conductor(cos_theta, self.eta.eval(ctx.uv), self.k.eval(ctx.uv))
+            * self.specular_reflectance.eval(ctx.uv)
     }
 
     pub(super) fn eval(&self, ctx: &BsdfContext, wi: Vec3, wo: Vec3) -> Rgb {
@@ -52,13 +53,19 @@ impl RoughConductor {
         }
     }
 
-    pub(super) fn sample(&self, ctx: &BsdfContext, wi: Vec3, _u1: f32, u2: Vec2) -> Option<BsdfSample> {
+    pub(super) fn sample(
+        &self,
+        ctx: &BsdfContext,
+        wi: Vec3,
+        _u1: f32,
+        u2: Vec2,
+    ) -> Option<BsdfSample> {
         if wi.z <= 0.0 {
             return None;
         }
         let dist = &self.distribution;
         let (m, m_pdf) = dist.sample(wi, u2);
-        if !(m_pdf > 0.0) {
+        if !is_positive(m_pdf) {
             return None;
         }
         let wo = reflect_about(wi, m);
@@ -72,9 +79,15 @@ impl RoughConductor {
         } else {
             dist.g(wi, wo, m) * wi.dot(m) / (wi.z * m.z)
         };
-        if !(pdf > 0.0) || !weight.is_finite() {
+        if !is_positive(pdf) || !weight.is_finite() {
             return None;
         }
-        Some(BsdfSample { wo, pdf, weight: self.fresnel(ctx, wi.dot(m)) * weight, eta: 1.0, delta: false })
+        Some(BsdfSample {
+            wo,
+            pdf,
+            weight: self.fresnel(ctx, wi.dot(m)) * weight,
+            eta: 1.0,
+            delta: false,
+        })
     }
 }

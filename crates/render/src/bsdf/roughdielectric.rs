@@ -4,7 +4,7 @@
 
 use super::fresnel::{fresnel_dielectric, reflect_about, refract_about};
 use super::microfacet::Microfacet;
-use super::{BsdfContext, BsdfSample};
+use super::{is_positive, BsdfContext, BsdfSample};
 use crate::color::Rgb;
 use crate::texture::Texture;
 use glam::{Vec2, Vec3};
@@ -37,7 +37,8 @@ impl RoughDielectric {
         if self.distribution.sample_visible {
             self.distribution
         } else {
-            self.distribution.scaled(1.2 - 0.2 * cos_theta_i.abs().sqrt())
+            self.distribution
+                .scaled(1.2 - 0.2 * cos_theta_i.abs().sqrt())
         }
     }
 
@@ -52,7 +53,7 @@ impl RoughDielectric {
         let eta = if ci > 0.0 { self.eta } else { 1.0 / self.eta };
         let h = wi + wo * if reflect { 1.0 } else { eta };
         let len2 = h.length_squared();
-        if !(len2 > 0.0) {
+        if !is_positive(len2) {
             return None;
         }
         let mut m = h / len2.sqrt();
@@ -66,7 +67,9 @@ impl RoughDielectric {
     }
 
     pub(super) fn eval(&self, ctx: &BsdfContext, wi: Vec3, wo: Vec3) -> Rgb {
-        let Some(HalfVector { m, reflect, eta }) = self.half_vector(wi, wo) else { return Rgb::ZERO };
+        let Some(HalfVector { m, reflect, eta }) = self.half_vector(wi, wo) else {
+            return Rgb::ZERO;
+        };
         let dist = &self.distribution;
         let d = dist.eval(m);
         if d == 0.0 {
@@ -87,7 +90,9 @@ impl RoughDielectric {
     }
 
     pub(super) fn pdf(&self, _ctx: &BsdfContext, wi: Vec3, wo: Vec3) -> f32 {
-        let Some(HalfVector { m, reflect, eta }) = self.half_vector(wi, wo) else { return 0.0 };
+        let Some(HalfVector { m, reflect, eta }) = self.half_vector(wi, wo) else {
+            return 0.0;
+        };
         let om = wo.dot(m);
         let dwh_dwo = if reflect {
             1.0 / (4.0 * om)
@@ -102,7 +107,13 @@ impl RoughDielectric {
         (prob * sel * dwh_dwo).abs()
     }
 
-    pub(super) fn sample(&self, ctx: &BsdfContext, wi: Vec3, u1: f32, u2: Vec2) -> Option<BsdfSample> {
+    pub(super) fn sample(
+        &self,
+        ctx: &BsdfContext,
+        wi: Vec3,
+        u1: f32,
+        u2: Vec2,
+    ) -> Option<BsdfSample> {
         let ci = wi.z;
         if ci == 0.0 {
             return None;
@@ -110,7 +121,7 @@ impl RoughDielectric {
         let wi_up = if ci < 0.0 { -wi } else { wi };
         let sampling = self.sampling_distribution(ci);
         let (m, m_pdf) = sampling.sample(wi_up, u2);
-        if !(m_pdf > 0.0) {
+        if !is_positive(m_pdf) {
             return None;
         }
         // Microfacets facing away from wi (possible when sampling the full NDF) carry no energy, and
@@ -136,7 +147,12 @@ impl RoughDielectric {
             let denom = wi.dot(m) + fr.eta_it * om;
             let pdf = (m_pdf * (1.0 - fr.f) * fr.eta_it * fr.eta_it * om / (denom * denom)).abs();
             let scale = fr.eta_ti * fr.eta_ti;
-            (wo, pdf, self.specular_transmittance.eval(ctx.uv) * scale, fr.eta_it)
+            (
+                wo,
+                pdf,
+                self.specular_transmittance.eval(ctx.uv) * scale,
+                fr.eta_it,
+            )
         };
         if wo.dot(m) * wo.z <= 0.0 {
             return None;
@@ -147,15 +163,21 @@ impl RoughDielectric {
             // Generic ratio of the unwidened model to the widened sampling density.
             let d = dist.eval(m);
             let ds = sampling.eval(m);
-            if !(ds > 0.0) {
+            if !is_positive(ds) {
                 return None;
             }
             dist.g(wi, wo, m) * wi.dot(m).abs() * d / (ci.abs() * m.z * ds)
         };
         weight *= g;
-        if !(pdf > 0.0) || !pdf.is_finite() || !weight.is_finite() {
+        if !is_positive(pdf) || !pdf.is_finite() || !weight.is_finite() {
             return None;
         }
-        Some(BsdfSample { wo, pdf, weight, eta, delta: false })
+        Some(BsdfSample {
+            wo,
+            pdf,
+            weight,
+            eta,
+            delta: false,
+        })
     }
 }

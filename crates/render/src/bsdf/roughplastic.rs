@@ -10,11 +10,12 @@
 
 use super::fresnel::{fresnel_dielectric, reflect_about, refract_about};
 use super::microfacet::{Microfacet, MicrofacetKind};
-use super::{texture_mean, BsdfContext, BsdfSample};
+use super::{is_positive, texture_mean, BsdfContext, BsdfSample};
 use crate::color::Rgb;
 use crate::texture::Texture;
 use crate::warp::{square_to_cosine_hemisphere, square_to_cosine_hemisphere_pdf};
 use glam::{Vec2, Vec3};
+use rayon::prelude::*;
 use std::f32::consts::FRAC_1_PI;
 
 /// Resolution of the external transmittance table (Mitsuba's `MI_ROUGH_TRANSMITTANCE_RES`).
@@ -66,7 +67,12 @@ fn gauss_legendre(n: usize) -> Vec<(f64, f64)> {
 }
 
 /// Average over visible normals (from `wi`) of `f(m)`, by tensor Gauss-Legendre quadrature.
-fn visible_normal_average(dist: &Microfacet, wi: Vec3, nodes: &[(f64, f64)], f: impl Fn(Vec3) -> f64) -> f64 {
+fn visible_normal_average(
+    dist: &Microfacet,
+    wi: Vec3,
+    nodes: &[(f64, f64)],
+    f: impl Fn(Vec3) -> f64,
+) -> f64 {
     let mut acc = 0.0;
     for &(x, wx) in nodes {
         for &(y, wy) in nodes {
@@ -115,18 +121,31 @@ impl RoughPlastic {
     ) -> Self {
         let distribution = Microfacet::new(kind, alpha, alpha, sample_visible);
         // The tables always integrate over visible normals, whatever the sampling strategy.
-        let table_dist = Microfacet { sample_visible: true, ..distribution };
-        let mus: Vec<f32> =
-            (0..TRANSMITTANCE_RES).map(|i| (i as f32 / (TRANSMITTANCE_RES - 1) as f32).max(1e-6)).collect();
+        let table_dist = Microfacet {
+            sample_visible: true,
+            ..distribution
+        };
+        let mus: Vec<f32> = (0..TRANSMITTANCE_RES)
+            .map(|i| (i as f32 / (TRANSMITTANCE_RES - 1) as f32).max(1e-6))
+            .collect();
         let dir = |mu: f32| Vec3::new((1.0 - mu * mu).max(0.0).sqrt(), 0.0, mu);
         let nodes_t = gauss_legendre(if eta > 1.0 { 32 } else { 128 });
         let nodes_r = gauss_legendre(if 1.0 / eta > 1.0 { 32 } else { 128 });
+        // (transmittance, reflectance·μ) per cosine; parallel because the tables cost ~1M microfacet samples.
+        let rows: Vec<(f64, f64)> = mus
+            .par_iter()
+            .map(|&mu| {
+                (
+                    rough_transmittance(&table_dist, dir(mu), eta, &nodes_t),
+                    rough_reflectance(&table_dist, dir(mu), 1.0 / eta, &nodes_r) * mu as f64,
+                )
+            })
+            .collect();
         let mut external_transmittance = Box::new([0.0f32; TRANSMITTANCE_RES]);
-        let mut internal = 0.0f64;
-        for (i, &mu) in mus.iter().enumerate() {
-            external_transmittance[i] = rough_transmittance(&table_dist, dir(mu), eta, &nodes_t) as f32;
-            internal += rough_reflectance(&table_dist, dir(mu), 1.0 / eta, &nodes_r) * mu as f64;
+        for (t, row) in external_transmittance.iter_mut().zip(&rows) {
+            *t = row.0 as f32;
         }
+        let internal: f64 = rows.iter().map(|r| r.1).sum();
         let internal_reflectance = (2.0 * internal / TRANSMITTANCE_RES as f64) as f32;
 
         let d_mean = texture_mean(&diffuse_reflectance);
@@ -169,7 +188,10 @@ impl RoughPlastic {
     }
 
     pub(super) fn specular_albedo(&self, ctx: &BsdfContext) -> Rgb {
-        let s = self.specular_reflectance.as_ref().map_or(Rgb::ONE, |t| t.eval(ctx.uv));
+        let s = self
+            .specular_reflectance
+            .as_ref()
+            .map_or(Rgb::ONE, |t| t.eval(ctx.uv));
         s * fresnel_dielectric(1.0, self.eta).f
     }
 
@@ -184,7 +206,10 @@ impl RoughPlastic {
         if d > 0.0 {
             let f = fresnel_dielectric(wi.dot(h), self.eta).f;
             let g = dist.g(wi, wo, h);
-            let s = self.specular_reflectance.as_ref().map_or(Rgb::ONE, |t| t.eval(ctx.uv));
+            let s = self
+                .specular_reflectance
+                .as_ref()
+                .map_or(Rgb::ONE, |t| t.eval(ctx.uv));
             value = s * (f * d * g / (4.0 * wi.z));
         }
         let t_i = self.transmittance(wi.z);
@@ -213,7 +238,13 @@ impl RoughPlastic {
         prob_specular * spec + (1.0 - prob_specular) * square_to_cosine_hemisphere_pdf(wo)
     }
 
-    pub(super) fn sample(&self, ctx: &BsdfContext, wi: Vec3, u1: f32, u2: Vec2) -> Option<BsdfSample> {
+    pub(super) fn sample(
+        &self,
+        ctx: &BsdfContext,
+        wi: Vec3,
+        u1: f32,
+        u2: Vec2,
+    ) -> Option<BsdfSample> {
         if wi.z <= 0.0 {
             return None;
         }
@@ -228,10 +259,16 @@ impl RoughPlastic {
             return None;
         }
         let pdf = self.pdf(ctx, wi, wo);
-        if !(pdf > 0.0) || !pdf.is_finite() {
+        if !is_positive(pdf) || !pdf.is_finite() {
             return None;
         }
         let weight = self.eval(ctx, wi, wo) / pdf;
-        Some(BsdfSample { wo, pdf, weight, eta: 1.0, delta: false })
+        Some(BsdfSample {
+            wo,
+            pdf,
+            weight,
+            eta: 1.0,
+            delta: false,
+        })
     }
 }

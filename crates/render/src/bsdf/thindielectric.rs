@@ -29,7 +29,13 @@ impl ThinDielectric {
         }
     }
 
-    pub(super) fn sample(&self, ctx: &BsdfContext, wi: Vec3, u1: f32, _u2: Vec2) -> Option<BsdfSample> {
+    pub(super) fn sample(
+        &self,
+        ctx: &BsdfContext,
+        wi: Vec3,
+        u1: f32,
+        _u2: Vec2,
+    ) -> Option<BsdfSample> {
         if wi.z == 0.0 {
             return None;
         }

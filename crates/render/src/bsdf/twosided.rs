@@ -35,7 +35,13 @@ impl TwoSided {
         }
     }
 
-    pub(super) fn sample(&self, ctx: &BsdfContext, wi: Vec3, u1: f32, u2: Vec2) -> Option<BsdfSample> {
+    pub(super) fn sample(
+        &self,
+        ctx: &BsdfContext,
+        wi: Vec3,
+        u1: f32,
+        u2: Vec2,
+    ) -> Option<BsdfSample> {
         if wi.z > 0.0 {
             self.sides[0].sample(ctx, wi, u1, u2)
         } else {
