@@ -5,12 +5,38 @@
 //! of the non-delta components; [`Bsdf::pdf`] is the solid-angle density with which [`Bsdf::sample`] picks
 //! `wo` through its non-delta components (including the lobe-selection probability); a sample that picks a
 //! delta component has `delta = true` and a weight that already contains everything.
+//!
+//! All models assume radiance transport (paths traced from the camera): refraction scales radiance by
+//! 1/η², as Mitsuba 3 does in `TransportMode::Radiance`.
 
+pub mod build;
+mod conductor;
+mod dielectric;
 mod diffuse;
+pub mod fresnel;
+pub mod ior;
+pub mod microfacet;
+mod plastic;
+mod roughconductor;
+mod roughdielectric;
+mod roughplastic;
+mod thindielectric;
+mod twosided;
 
+pub use build::bsdf_from_desc;
+pub use conductor::Conductor;
+pub use dielectric::Dielectric;
 pub use diffuse::Diffuse;
+pub use microfacet::{Microfacet, MicrofacetKind};
+pub use plastic::Plastic;
+pub use roughconductor::RoughConductor;
+pub use roughdielectric::RoughDielectric;
+pub use roughplastic::RoughPlastic;
+pub use thindielectric::ThinDielectric;
+pub use twosided::TwoSided;
 
 use crate::color::Rgb;
+use crate::texture::Texture;
 use glam::{Vec2, Vec3};
 
 /// Per-query data a BSDF may need besides the directions.
@@ -35,11 +61,41 @@ pub struct BsdfSample {
     pub delta: bool,
 }
 
-/// A BSDF. Closed set (hot path): one variant per supported Mitsuba plugin.
+/// A BSDF. Closed set (hot path): one variant per supported Mitsuba plugin. Large models are boxed to
+/// keep the enum small.
 #[derive(Clone, Debug)]
 pub enum Bsdf {
     /// Lambertian reflection (`diffuse`).
     Diffuse(Diffuse),
+    /// Smooth conductor (`conductor`).
+    Conductor(Box<Conductor>),
+    /// Rough conductor (`roughconductor`).
+    RoughConductor(Box<RoughConductor>),
+    /// Smooth dielectric interface (`dielectric`).
+    Dielectric(Dielectric),
+    /// Rough dielectric interface (`roughdielectric`).
+    RoughDielectric(Box<RoughDielectric>),
+    /// Thin dielectric sheet (`thindielectric`).
+    ThinDielectric(ThinDielectric),
+    /// Smooth plastic (`plastic`).
+    Plastic(Box<Plastic>),
+    /// Rough plastic (`roughplastic`).
+    RoughPlastic(Box<RoughPlastic>),
+    /// Two-sided adapter (`twosided`).
+    TwoSided(TwoSided),
+}
+
+/// True for a strictly positive number (false for NaN), for rejecting degenerate samples.
+#[inline]
+pub(crate) fn is_positive(x: f32) -> bool {
+    x > 0.0
+}
+
+/// The mean of a texture's values (Mitsuba's `Texture::mean`), used for sampling weights.
+pub(crate) fn texture_mean(t: &Texture) -> f32 {
+    match t {
+        Texture::Constant(c) => (c.x + c.y + c.z) / 3.0,
+    }
 }
 
 impl Bsdf {
@@ -48,6 +104,12 @@ impl Bsdf {
     pub fn eval(&self, ctx: &BsdfContext, wi: Vec3, wo: Vec3) -> Rgb {
         match self {
             Bsdf::Diffuse(b) => b.eval(ctx, wi, wo),
+            Bsdf::RoughConductor(b) => b.eval(ctx, wi, wo),
+            Bsdf::RoughDielectric(b) => b.eval(ctx, wi, wo),
+            Bsdf::Plastic(b) => b.eval(ctx, wi, wo),
+            Bsdf::RoughPlastic(b) => b.eval(ctx, wi, wo),
+            Bsdf::TwoSided(b) => b.eval(ctx, wi, wo),
+            Bsdf::Conductor(_) | Bsdf::Dielectric(_) | Bsdf::ThinDielectric(_) => Rgb::ZERO,
         }
     }
 
@@ -56,6 +118,12 @@ impl Bsdf {
     pub fn pdf(&self, ctx: &BsdfContext, wi: Vec3, wo: Vec3) -> f32 {
         match self {
             Bsdf::Diffuse(b) => b.pdf(ctx, wi, wo),
+            Bsdf::RoughConductor(b) => b.pdf(ctx, wi, wo),
+            Bsdf::RoughDielectric(b) => b.pdf(ctx, wi, wo),
+            Bsdf::Plastic(b) => b.pdf(ctx, wi, wo),
+            Bsdf::RoughPlastic(b) => b.pdf(ctx, wi, wo),
+            Bsdf::TwoSided(b) => b.pdf(ctx, wi, wo),
+            Bsdf::Conductor(_) | Bsdf::Dielectric(_) | Bsdf::ThinDielectric(_) => 0.0,
         }
     }
 
@@ -65,6 +133,14 @@ impl Bsdf {
     pub fn sample(&self, ctx: &BsdfContext, wi: Vec3, u1: f32, u2: Vec2) -> Option<BsdfSample> {
         match self {
             Bsdf::Diffuse(b) => b.sample(ctx, wi, u1, u2),
+            Bsdf::Conductor(b) => b.sample(ctx, wi, u1, u2),
+            Bsdf::RoughConductor(b) => b.sample(ctx, wi, u1, u2),
+            Bsdf::Dielectric(b) => b.sample(ctx, wi, u1, u2),
+            Bsdf::RoughDielectric(b) => b.sample(ctx, wi, u1, u2),
+            Bsdf::ThinDielectric(b) => b.sample(ctx, wi, u1, u2),
+            Bsdf::Plastic(b) => b.sample(ctx, wi, u1, u2),
+            Bsdf::RoughPlastic(b) => b.sample(ctx, wi, u1, u2),
+            Bsdf::TwoSided(b) => b.sample(ctx, wi, u1, u2),
         }
     }
 
@@ -72,7 +148,10 @@ impl Bsdf {
     #[inline]
     pub fn has_smooth(&self) -> bool {
         match self {
-            Bsdf::Diffuse(_) => true,
+            Bsdf::Diffuse(_) | Bsdf::RoughConductor(_) | Bsdf::RoughDielectric(_) => true,
+            Bsdf::Plastic(_) | Bsdf::RoughPlastic(_) => true,
+            Bsdf::Conductor(_) | Bsdf::Dielectric(_) | Bsdf::ThinDielectric(_) => false,
+            Bsdf::TwoSided(b) => b.sides.iter().any(Bsdf::has_smooth),
         }
     }
 
@@ -80,7 +159,24 @@ impl Bsdf {
     #[inline]
     pub fn has_delta(&self) -> bool {
         match self {
-            Bsdf::Diffuse(_) => false,
+            Bsdf::Conductor(_)
+            | Bsdf::Dielectric(_)
+            | Bsdf::ThinDielectric(_)
+            | Bsdf::Plastic(_) => true,
+            Bsdf::Diffuse(_)
+            | Bsdf::RoughConductor(_)
+            | Bsdf::RoughDielectric(_)
+            | Bsdf::RoughPlastic(_) => false,
+            Bsdf::TwoSided(b) => b.sides.iter().any(Bsdf::has_delta),
+        }
+    }
+
+    /// True if some component transmits light to the other side of the surface.
+    pub fn has_transmission(&self) -> bool {
+        match self {
+            Bsdf::Dielectric(_) | Bsdf::RoughDielectric(_) | Bsdf::ThinDielectric(_) => true,
+            Bsdf::TwoSided(b) => b.sides.iter().any(Bsdf::has_transmission),
+            _ => false,
         }
     }
 
@@ -89,13 +185,60 @@ impl Bsdf {
     pub fn min_roughness(&self) -> f32 {
         match self {
             Bsdf::Diffuse(_) => f32::INFINITY,
+            Bsdf::Conductor(_)
+            | Bsdf::Dielectric(_)
+            | Bsdf::ThinDielectric(_)
+            | Bsdf::Plastic(_) => 0.0,
+            Bsdf::RoughConductor(b) => b.distribution.min_alpha(),
+            Bsdf::RoughDielectric(b) => b.distribution.min_alpha(),
+            Bsdf::RoughPlastic(b) => b.distribution.min_alpha(),
+            Bsdf::TwoSided(b) => b.sides[0].min_roughness().min(b.sides[1].min_roughness()),
         }
     }
 
-    /// A rough reflectance at `uv` for the albedo AOV (diffuse + specular reflectance, clamped to [0, 1]).
+    /// A rough reflectance at `uv` for the albedo AOV (diffuse + specular reflectance at normal
+    /// incidence, clamped to [0, 1]; dielectrics report reflectance + transmittance).
     pub fn albedo(&self, ctx: &BsdfContext) -> Rgb {
-        match self {
+        let a = match self {
             Bsdf::Diffuse(b) => b.reflectance.eval(ctx.uv),
-        }
+            Bsdf::Conductor(b) => b.reflectance(ctx, 1.0),
+            Bsdf::RoughConductor(b) => {
+                fresnel::fresnel_conductor(1.0, b.eta.eval(ctx.uv), b.k.eval(ctx.uv))
+                    * b.specular_reflectance.eval(ctx.uv)
+            }
+            Bsdf::Dielectric(b) => {
+                let f = fresnel::fresnel_dielectric(1.0, b.eta).f;
+                b.specular_reflectance.eval(ctx.uv) * f
+                    + b.specular_transmittance.eval(ctx.uv) * (1.0 - f)
+            }
+            Bsdf::RoughDielectric(b) => {
+                let f = fresnel::fresnel_dielectric(1.0, b.eta).f;
+                b.specular_reflectance.eval(ctx.uv) * f
+                    + b.specular_transmittance.eval(ctx.uv) * (1.0 - f)
+            }
+            Bsdf::ThinDielectric(b) => {
+                let r = b.slab_reflectance(1.0);
+                b.specular_reflectance.eval(ctx.uv) * r
+                    + b.specular_transmittance.eval(ctx.uv) * (1.0 - r)
+            }
+            Bsdf::Plastic(b) => b.diffuse_reflectance.eval(ctx.uv) + b.specular_albedo(ctx),
+            Bsdf::RoughPlastic(b) => b.diffuse_reflectance.eval(ctx.uv) + b.specular_albedo(ctx),
+            Bsdf::TwoSided(b) => b.sides[0].albedo(ctx),
+        };
+        a.clamp(Rgb::ZERO, Rgb::ONE)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn enum_stays_small() {
+        assert!(
+            std::mem::size_of::<Bsdf>() <= 48,
+            "{}",
+            std::mem::size_of::<Bsdf>()
+        );
     }
 }

@@ -1,0 +1,633 @@
+//! Builds BSDFs from the neutral scene description with Mitsuba 3's parameter names and defaults
+//! (Mitsuba 0.6 names arrive already normalised to snake_case, e.g. `intIOR` → `int_ior`).
+
+use super::ior::{conductor_ior, conductor_names, dielectric_ior, dielectric_names};
+use super::{
+    is_positive, Bsdf, Conductor, Dielectric, Diffuse, Microfacet, MicrofacetKind, Plastic,
+    RoughConductor, RoughDielectric, RoughPlastic, ThinDielectric, TwoSided,
+};
+use crate::color::Rgb;
+use crate::desc::{ObjectClass, ObjectDesc, PropValue, Property};
+use crate::error::{SceneError, SceneResult};
+use crate::texture::Texture;
+
+/// The BSDF plugins we can build.
+const KNOWN_PLUGINS: &[&str] = &[
+    "diffuse",
+    "conductor",
+    "roughconductor",
+    "dielectric",
+    "roughdielectric",
+    "thindielectric",
+    "plastic",
+    "roughplastic",
+    "twosided",
+];
+
+/// Builds the BSDF described by a `<bsdf>` element.
+pub fn bsdf_from_desc(obj: &ObjectDesc) -> SceneResult<Bsdf> {
+    match obj.plugin.as_str() {
+        "diffuse" => Ok(Bsdf::Diffuse(Diffuse {
+            reflectance: texture(obj, &["reflectance"], Rgb::splat(0.5))?,
+        })),
+        "conductor" => {
+            let (eta, k) = conductor_eta_k(obj)?;
+            Ok(Bsdf::Conductor(Box::new(Conductor {
+                eta,
+                k,
+                specular_reflectance: texture(obj, &["specular_reflectance"], Rgb::ONE)?,
+            })))
+        }
+        "roughconductor" => {
+            let (eta, k) = conductor_eta_k(obj)?;
+            Ok(Bsdf::RoughConductor(Box::new(RoughConductor {
+                distribution: microfacet(obj, true)?,
+                eta,
+                k,
+                specular_reflectance: texture(obj, &["specular_reflectance"], Rgb::ONE)?,
+            })))
+        }
+        "dielectric" => Ok(Bsdf::Dielectric(Dielectric {
+            eta: relative_ior(obj, "bk7", false)?,
+            specular_reflectance: texture(obj, &["specular_reflectance"], Rgb::ONE)?,
+            specular_transmittance: texture(obj, &["specular_transmittance"], Rgb::ONE)?,
+        })),
+        "thindielectric" => Ok(Bsdf::ThinDielectric(ThinDielectric {
+            eta: relative_ior(obj, "bk7", false)?,
+            specular_reflectance: texture(obj, &["specular_reflectance"], Rgb::ONE)?,
+            specular_transmittance: texture(obj, &["specular_transmittance"], Rgb::ONE)?,
+        })),
+        "roughdielectric" => Ok(Bsdf::RoughDielectric(Box::new(RoughDielectric {
+            distribution: microfacet(obj, true)?,
+            eta: relative_ior(obj, "bk7", true)?,
+            specular_reflectance: texture(obj, &["specular_reflectance"], Rgb::ONE)?,
+            specular_transmittance: texture(obj, &["specular_transmittance"], Rgb::ONE)?,
+        }))),
+        "plastic" => Ok(Bsdf::Plastic(Box::new(Plastic::new(
+            relative_ior(obj, "polypropylene", false)?,
+            texture(obj, &["diffuse_reflectance"], Rgb::splat(0.5))?,
+            optional_texture(obj, &["specular_reflectance"])?,
+            obj.bool_or("nonlinear", false)?,
+        )))),
+        "roughplastic" => {
+            let dist = microfacet(obj, false)?;
+            Ok(Bsdf::RoughPlastic(Box::new(RoughPlastic::new(
+                dist.kind,
+                dist.alpha_u,
+                dist.sample_visible,
+                relative_ior(obj, "polypropylene", true)?,
+                texture(obj, &["diffuse_reflectance"], Rgb::splat(0.5))?,
+                optional_texture(obj, &["specular_reflectance"])?,
+                obj.bool_or("nonlinear", false)?,
+            ))))
+        }
+        "twosided" => twosided(obj),
+        other => Err(obj.error(format!(
+            "unknown BSDF plugin '{other}' (supported: {})",
+            KNOWN_PLUGINS.join(", ")
+        ))),
+    }
+}
+
+/// The first property present under any of the given names (current name first, then aliases).
+fn find_prop<'a>(obj: &'a ObjectDesc, names: &[&str]) -> Option<&'a Property> {
+    names.iter().find_map(|n| obj.prop(n))
+}
+
+/// Rejects a nested `<texture>` bound to one of `names` (bitmap/procedural textures come later).
+fn reject_texture_child(obj: &ObjectDesc, names: &[&str]) -> SceneResult<()> {
+    for n in names {
+        if let Some(child) = obj.named_child(n) {
+            return Err(SceneError::at(
+                &child.object.loc,
+                format!(
+                    "parameter '{n}' of {} '{}': textures not yet supported (<{} type=\"{}\">)",
+                    obj.class.tag(),
+                    obj.plugin,
+                    child.object.class.tag(),
+                    child.object.plugin
+                ),
+            ));
+        }
+    }
+    Ok(())
+}
+
+/// A colour parameter as a constant texture (rgb, spectrum or float), or `default`.
+fn texture(obj: &ObjectDesc, names: &[&str], default: Rgb) -> SceneResult<Texture> {
+    Ok(optional_texture(obj, names)?.unwrap_or(Texture::Constant(default)))
+}
+
+/// A colour parameter as a constant texture, or `None` if absent.
+fn optional_texture(obj: &ObjectDesc, names: &[&str]) -> SceneResult<Option<Texture>> {
+    reject_texture_child(obj, names)?;
+    match find_prop(obj, names) {
+        None => Ok(None),
+        Some(p) => {
+            let v = obj.rgb_or(&p.name, Rgb::ZERO)?;
+            if !v.is_finite() {
+                return Err(SceneError::at(
+                    &p.loc,
+                    format!("parameter '{}' must be finite, found {v}", p.name),
+                ));
+            }
+            Ok(Some(Texture::Constant(v)))
+        }
+    }
+}
+
+/// A float parameter under any of `names`, or `default`; with its property for error locations.
+fn float_param<'a>(
+    obj: &'a ObjectDesc,
+    names: &[&str],
+    default: f64,
+) -> SceneResult<(f64, Option<&'a Property>)> {
+    match find_prop(obj, names) {
+        None => Ok((default, None)),
+        Some(p) => {
+            let v = obj.float_or(&p.name, default)?;
+            if !v.is_finite() {
+                return Err(SceneError::at(
+                    &p.loc,
+                    format!("parameter '{}' must be finite, found {v}", p.name),
+                ));
+            }
+            Ok((v, Some(p)))
+        }
+    }
+}
+
+/// An index of refraction given as a number or a material name from Mitsuba's table.
+fn ior_param(obj: &ObjectDesc, names: &[&str], default_name: &str) -> SceneResult<f32> {
+    let Some(p) = find_prop(obj, names) else {
+        return Ok(dielectric_ior(default_name).expect("default IOR names are in the table"));
+    };
+    let v = match &p.value {
+        PropValue::String(name) => dielectric_ior(name).ok_or_else(|| {
+            SceneError::at(
+                &p.loc,
+                format!(
+                    "unknown index of refraction '{name}' for '{}' (known: {})",
+                    p.name,
+                    dielectric_names().collect::<Vec<_>>().join(", ")
+                ),
+            )
+        })?,
+        _ => obj.float_or(&p.name, 1.0)? as f32,
+    };
+    if !is_positive(v) || !v.is_finite() {
+        return Err(SceneError::at(
+            &p.loc,
+            format!(
+                "index of refraction '{}' must be positive, found {v}",
+                p.name
+            ),
+        ));
+    }
+    Ok(v)
+}
+
+/// int_ior / ext_ior (ext_ior defaults to air, 1.000277, as in Mitsuba 3). `must_differ` rejects
+/// index-matched interfaces, which the rough models cannot represent (as Mitsuba).
+fn relative_ior(obj: &ObjectDesc, default_int: &str, must_differ: bool) -> SceneResult<f32> {
+    let int_names = ["int_ior", "int_i_o_r"];
+    let int_ior = ior_param(obj, &int_names, default_int)?;
+    let ext_ior = ior_param(obj, &["ext_ior", "ext_i_o_r"], "air")?;
+    if must_differ && int_ior == ext_ior {
+        let loc = find_prop(obj, &int_names).map_or(&obj.loc, |p| &p.loc);
+        return Err(SceneError::at(
+            loc,
+            format!(
+                "{} '{}': the interior and exterior indices of refraction must differ",
+                obj.class.tag(),
+                obj.plugin
+            ),
+        ));
+    }
+    Ok(int_ior / ext_ior)
+}
+
+/// The complex IOR of a conductor: `eta`/`k` (defaults 0 and 1), or a named `material` (default
+/// "none", a perfect mirror); not both. A Mitsuba 0.6 `ext_eta` divides both.
+fn conductor_eta_k(obj: &ObjectDesc) -> SceneResult<(Texture, Texture)> {
+    let material = obj.string_or("material", "none")?;
+    let has_eta_k = obj.prop("eta").is_some() || obj.prop("k").is_some();
+    let (eta, k) = if has_eta_k || material == "none" {
+        if material != "none" {
+            let p = obj.prop("material").expect("material was given");
+            return Err(SceneError::at(
+                &p.loc,
+                "specify either 'eta'/'k' or 'material', not both",
+            ));
+        }
+        let eta = texture(obj, &["eta"], Rgb::ZERO)?;
+        let k = texture(obj, &["k"], Rgb::ONE)?;
+        match (eta, k) {
+            (Texture::Constant(e), Texture::Constant(k)) => (e, k),
+        }
+    } else {
+        conductor_ior(&material).ok_or_else(|| {
+            let p = obj.prop("material").expect("material was given");
+            SceneError::at(
+                &p.loc,
+                format!(
+                    "unknown conductor material '{material}' (known: {})",
+                    conductor_names().collect::<Vec<_>>().join(", ")
+                ),
+            )
+        })?
+    };
+    if eta.min_element() < 0.0 || k.min_element() < 0.0 {
+        return Err(obj.error("conductor 'eta' and 'k' must be non-negative"));
+    }
+    let ext_eta = ior_param(obj, &["ext_eta"], "vacuum")?;
+    Ok((
+        Texture::Constant(eta / ext_eta),
+        Texture::Constant(k / ext_eta),
+    ))
+}
+
+/// The microfacet distribution: `distribution` (beckmann | ggx, default beckmann), `alpha` or
+/// `alpha_u`/`alpha_v` (default 0.1), `sample_visible` (default true).
+fn microfacet(obj: &ObjectDesc, allow_anisotropic: bool) -> SceneResult<Microfacet> {
+    let kind = match obj.prop("distribution") {
+        None => MicrofacetKind::Beckmann,
+        Some(p) => {
+            let name = obj.string_or("distribution", "beckmann")?;
+            match name.to_ascii_lowercase().as_str() {
+                "beckmann" => MicrofacetKind::Beckmann,
+                "ggx" => MicrofacetKind::Ggx,
+                _ => {
+                    return Err(SceneError::at(
+                        &p.loc,
+                        format!(
+                            "invalid microfacet distribution '{name}', must be 'beckmann' or 'ggx'"
+                        ),
+                    ))
+                }
+            }
+        }
+    };
+    reject_texture_child(obj, &["alpha", "alpha_u", "alpha_v"])?;
+    let alpha = float_param(obj, &["alpha"], 0.1)?;
+    let alpha_u = float_param(obj, &["alpha_u"], 0.1)?;
+    let alpha_v = float_param(obj, &["alpha_v"], 0.1)?;
+    let (au, av) = match (alpha.1, alpha_u.1, alpha_v.1) {
+        (Some(p), Some(_), _) | (Some(p), _, Some(_)) => {
+            return Err(SceneError::at(
+                &p.loc,
+                "specify either 'alpha' or 'alpha_u'/'alpha_v', not both",
+            ))
+        }
+        (Some(_), None, None) => (alpha.0, alpha.0),
+        (None, Some(_), Some(_)) => (alpha_u.0, alpha_v.0),
+        (None, Some(p), None) | (None, None, Some(p)) => {
+            return Err(SceneError::at(
+                &p.loc,
+                "both 'alpha_u' and 'alpha_v' must be specified",
+            ))
+        }
+        (None, None, None) => (0.1, 0.1),
+    };
+    for (v, p) in [alpha, alpha_u, alpha_v] {
+        if let Some(p) = p {
+            if v < 0.0 {
+                return Err(SceneError::at(
+                    &p.loc,
+                    format!("roughness '{}' must be non-negative, found {v}", p.name),
+                ));
+            }
+        }
+    }
+    if !allow_anisotropic && au != av {
+        let p = alpha_u.1.expect("anisotropy needs alpha_u");
+        return Err(SceneError::at(
+            &p.loc,
+            format!("'{}' does not support anisotropic roughness", obj.plugin),
+        ));
+    }
+    let sample_visible = obj.bool_or("sample_visible", true)?;
+    Ok(Microfacet::new(kind, au as f32, av as f32, sample_visible))
+}
+
+/// `twosided` with one nested BSDF (both sides) or two (front, back); transmissive models are rejected.
+fn twosided(obj: &ObjectDesc) -> SceneResult<Bsdf> {
+    let nested: Vec<_> = obj.children_of(&ObjectClass::Bsdf).collect();
+    if nested.is_empty() || nested.len() > 2 {
+        return Err(obj.error(format!(
+            "'twosided' needs one or two nested BSDFs, found {}",
+            nested.len()
+        )));
+    }
+    let mut sides = Vec::with_capacity(2);
+    for child in &nested {
+        let b = bsdf_from_desc(&child.object)?;
+        if b.has_transmission() {
+            return Err(SceneError::at(
+                &child.object.loc,
+                format!(
+                    "'twosided' cannot wrap the transmissive BSDF '{}'",
+                    child.object.plugin
+                ),
+            ));
+        }
+        sides.push(b);
+    }
+    let back = if sides.len() == 2 {
+        sides.pop().expect("two sides")
+    } else {
+        sides[0].clone()
+    };
+    let front = sides.pop().expect("one side");
+    Ok(Bsdf::TwoSided(TwoSided {
+        sides: Box::new([front, back]),
+    }))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::bsdf::BsdfContext;
+    use crate::desc::ChildDesc;
+    use crate::error::SourceLoc;
+    use glam::Vec3;
+    use std::path::PathBuf;
+    use std::sync::Arc;
+
+    fn loc(line: u32) -> SourceLoc {
+        SourceLoc {
+            file: Arc::new(PathBuf::from("scene.xml")),
+            line,
+            col: 1,
+        }
+    }
+
+    /// A `<bsdf>` element at line 1 whose properties sit on lines 2, 3, ...
+    fn bsdf(plugin: &str, props: &[(&str, PropValue)]) -> ObjectDesc {
+        ObjectDesc {
+            class: ObjectClass::Bsdf,
+            plugin: plugin.into(),
+            id: None,
+            props: props
+                .iter()
+                .enumerate()
+                .map(|(i, (n, v))| Property {
+                    name: n.to_string(),
+                    value: v.clone(),
+                    loc: loc(i as u32 + 2),
+                })
+                .collect(),
+            children: Vec::new(),
+            loc: loc(1),
+        }
+    }
+
+    fn with_children(mut obj: ObjectDesc, children: Vec<(Option<&str>, ObjectDesc)>) -> ObjectDesc {
+        obj.children = children
+            .into_iter()
+            .map(|(n, o)| ChildDesc {
+                name: n.map(str::to_string),
+                object: Arc::new(o),
+            })
+            .collect();
+        obj
+    }
+
+    fn float(v: f64) -> PropValue {
+        PropValue::Float(v)
+    }
+
+    fn string(s: &str) -> PropValue {
+        PropValue::String(s.into())
+    }
+
+    fn err_line(r: SceneResult<Bsdf>) -> (u32, String) {
+        let e = r.expect_err("expected a scene error");
+        (e.loc.expect("located").line, e.message)
+    }
+
+    #[test]
+    fn defaults_follow_mitsuba3() {
+        let Bsdf::Diffuse(d) = bsdf_from_desc(&bsdf("diffuse", &[])).unwrap() else {
+            panic!()
+        };
+        assert_eq!(d.reflectance.eval(Default::default()), Rgb::splat(0.5));
+
+        let Bsdf::Dielectric(d) = bsdf_from_desc(&bsdf("dielectric", &[])).unwrap() else {
+            panic!()
+        };
+        assert!((d.eta - 1.5046 / 1.000277).abs() < 1e-6);
+        let Bsdf::Dielectric(d) =
+            bsdf_from_desc(&bsdf("dielectric", &[("int_ior", float(1.5))])).unwrap()
+        else {
+            panic!()
+        };
+        assert!((d.eta - 1.49958).abs() < 1e-5, "{}", d.eta);
+        let Bsdf::Dielectric(d) = bsdf_from_desc(&bsdf(
+            "dielectric",
+            &[("int_ior", string("water")), ("ext_ior", string("vacuum"))],
+        ))
+        .unwrap() else {
+            panic!()
+        };
+        assert!((d.eta - 1.333).abs() < 1e-6);
+
+        let Bsdf::Plastic(p) = bsdf_from_desc(&bsdf("plastic", &[])).unwrap() else {
+            panic!()
+        };
+        assert!((p.eta - 1.49 / 1.000277).abs() < 1e-6);
+        assert!(!p.nonlinear && p.specular_reflectance.is_none());
+        assert_eq!(
+            p.diffuse_reflectance.eval(Default::default()),
+            Rgb::splat(0.5)
+        );
+
+        let Bsdf::RoughConductor(c) = bsdf_from_desc(&bsdf("roughconductor", &[])).unwrap() else {
+            panic!()
+        };
+        assert_eq!(c.distribution.kind, MicrofacetKind::Beckmann);
+        assert_eq!((c.distribution.alpha_u, c.distribution.alpha_v), (0.1, 0.1));
+        assert!(c.distribution.sample_visible);
+
+        // Conductor "none": a perfect mirror.
+        let b = bsdf_from_desc(&bsdf("conductor", &[])).unwrap();
+        let s = b
+            .sample(
+                &BsdfContext::default(),
+                Vec3::new(0.6, 0.0, 0.8),
+                0.5,
+                Default::default(),
+            )
+            .unwrap();
+        assert!(s.delta && (s.weight - Rgb::ONE).abs().max_element() < 1e-6);
+    }
+
+    #[test]
+    fn parameters_are_read() {
+        let b = bsdf_from_desc(&bsdf(
+            "roughdielectric",
+            &[
+                ("distribution", string("GGX")),
+                ("alpha_u", float(0.2)),
+                ("alpha_v", float(0.4)),
+                ("int_i_o_r", float(1.33)),
+                ("ext_i_o_r", float(1.0)),
+                (
+                    "specular_transmittance",
+                    PropValue::Rgb(Vec3::new(0.5, 0.6, 0.7)),
+                ),
+            ],
+        ))
+        .unwrap();
+        let Bsdf::RoughDielectric(d) = &b else {
+            panic!()
+        };
+        assert_eq!(d.distribution.kind, MicrofacetKind::Ggx);
+        assert_eq!((d.distribution.alpha_u, d.distribution.alpha_v), (0.2, 0.4));
+        assert!((d.eta - 1.33).abs() < 1e-6);
+        assert_eq!(
+            d.specular_transmittance.eval(Default::default()),
+            Vec3::new(0.5, 0.6, 0.7)
+        );
+        assert_eq!(b.min_roughness(), 0.2);
+
+        let Bsdf::Conductor(c) =
+            bsdf_from_desc(&bsdf("conductor", &[("material", string("Au"))])).unwrap()
+        else {
+            panic!()
+        };
+        let gold = c.reflectance(&BsdfContext::default(), 1.0);
+        assert!(gold.x > gold.y && gold.y > gold.z && gold.x > 0.8, "{gold}");
+
+        let b = bsdf_from_desc(&bsdf(
+            "roughplastic",
+            &[
+                ("alpha", float(0.3)),
+                ("nonlinear", PropValue::Boolean(true)),
+                ("diffuse_reflectance", float(0.2)),
+            ],
+        ))
+        .unwrap();
+        let Bsdf::RoughPlastic(p) = &b else { panic!() };
+        assert!(p.nonlinear && p.distribution.alpha_u == 0.3);
+        assert!(
+            p.internal_reflectance() > 0.4 && p.internal_reflectance() < 0.7,
+            "{}",
+            p.internal_reflectance()
+        );
+    }
+
+    #[test]
+    fn bad_parameters_are_located_errors() {
+        let (line, msg) = err_line(bsdf_from_desc(&bsdf(
+            "roughconductor",
+            &[("alpha", float(-0.1))],
+        )));
+        assert_eq!(line, 2);
+        assert!(msg.contains("non-negative"), "{msg}");
+        let (line, msg) = err_line(bsdf_from_desc(&bsdf(
+            "roughconductor",
+            &[("alpha", float(0.1)), ("distribution", string("phong"))],
+        )));
+        assert_eq!(line, 3);
+        assert!(msg.contains("phong"), "{msg}");
+        let (line, _) = err_line(bsdf_from_desc(&bsdf(
+            "roughconductor",
+            &[("alpha", float(0.1)), ("alpha_u", float(0.1))],
+        )));
+        assert_eq!(line, 2);
+        let (line, _) = err_line(bsdf_from_desc(&bsdf(
+            "roughconductor",
+            &[("alpha_u", float(0.1))],
+        )));
+        assert_eq!(line, 2);
+        let (line, msg) = err_line(bsdf_from_desc(&bsdf(
+            "dielectric",
+            &[("int_ior", string("unobtainium"))],
+        )));
+        assert_eq!(line, 2);
+        assert!(msg.contains("unobtainium") && msg.contains("bk7"), "{msg}");
+        let (line, _) = err_line(bsdf_from_desc(&bsdf(
+            "dielectric",
+            &[("int_ior", float(-1.5))],
+        )));
+        assert_eq!(line, 2);
+        let (line, msg) = err_line(bsdf_from_desc(&bsdf(
+            "conductor",
+            &[("material", string("Unobtainium"))],
+        )));
+        assert_eq!(line, 2);
+        assert!(msg.contains("Au"), "{msg}");
+        let (line, _) = err_line(bsdf_from_desc(&bsdf(
+            "conductor",
+            &[("material", string("Au")), ("eta", float(1.0))],
+        )));
+        assert_eq!(line, 2);
+        let (line, _) = err_line(bsdf_from_desc(&bsdf(
+            "roughplastic",
+            &[("alpha_u", float(0.1)), ("alpha_v", float(0.2))],
+        )));
+        assert_eq!(line, 2);
+        let (line, _) = err_line(bsdf_from_desc(&bsdf(
+            "roughdielectric",
+            &[("int_ior", float(1.2)), ("ext_ior", float(1.2))],
+        )));
+        assert_eq!(line, 2);
+        let (line, msg) = err_line(bsdf_from_desc(&bsdf(
+            "diffuse",
+            &[("reflectance", string("red"))],
+        )));
+        assert_eq!(line, 2);
+        assert!(msg.contains("reflectance"), "{msg}");
+        let (line, msg) = err_line(bsdf_from_desc(&bsdf("velvet", &[])));
+        assert_eq!(line, 1);
+        assert!(msg.contains("unknown BSDF plugin 'velvet'"), "{msg}");
+    }
+
+    #[test]
+    fn nested_textures_are_not_yet_supported() {
+        let mut tex = bsdf("bitmap", &[]);
+        tex.class = ObjectClass::Texture;
+        tex.loc = loc(7);
+        let obj = with_children(bsdf("diffuse", &[]), vec![(Some("reflectance"), tex)]);
+        let (line, msg) = err_line(bsdf_from_desc(&obj));
+        assert_eq!(line, 7);
+        assert!(msg.contains("textures not yet supported"), "{msg}");
+    }
+
+    #[test]
+    fn twosided_wraps_one_or_two_reflection_models() {
+        let one = with_children(bsdf("twosided", &[]), vec![(None, bsdf("diffuse", &[]))]);
+        let b = bsdf_from_desc(&one).unwrap();
+        let ctx = BsdfContext::default();
+        let (wi, wo) = (Vec3::new(0.0, 0.6, -0.8), Vec3::new(0.6, 0.0, -0.8));
+        assert!(
+            (b.eval(&ctx, wi, wo) - Rgb::splat(0.5 * 0.8 / std::f32::consts::PI))
+                .abs()
+                .max_element()
+                < 1e-6
+        );
+
+        let two = with_children(
+            bsdf("twosided", &[]),
+            vec![
+                (None, bsdf("diffuse", &[])),
+                (None, bsdf("diffuse", &[("reflectance", float(0.25))])),
+            ],
+        );
+        let b = bsdf_from_desc(&two).unwrap();
+        assert!((b.eval(&ctx, wi, wo).x - 0.25 * 0.8 / std::f32::consts::PI).abs() < 1e-6);
+        assert!((b.eval(&ctx, -wi, -wo).x - 0.5 * 0.8 / std::f32::consts::PI).abs() < 1e-6);
+
+        let mut glass = bsdf("dielectric", &[]);
+        glass.loc = loc(9);
+        let (line, msg) = err_line(bsdf_from_desc(&with_children(
+            bsdf("twosided", &[]),
+            vec![(None, glass)],
+        )));
+        assert_eq!(line, 9);
+        assert!(msg.contains("transmissive"), "{msg}");
+        let (line, _) = err_line(bsdf_from_desc(&bsdf("twosided", &[])));
+        assert_eq!(line, 1);
+    }
+}

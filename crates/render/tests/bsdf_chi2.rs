@@ -1,0 +1,478 @@
+//! Statistical tests of every BSDF: chi-square goodness of fit of `sample` against `pdf` (non-delta
+//! part), consistency of the sample weight with eval/pdf, white-furnace energy bounds, and reciprocity.
+
+use focal_render::bsdf::{
+    Bsdf, BsdfContext, Conductor, Dielectric, Diffuse, Microfacet, MicrofacetKind, Plastic,
+    RoughConductor, RoughDielectric, RoughPlastic, ThinDielectric, TwoSided,
+};
+use focal_render::color::Rgb;
+use focal_render::texture::Texture;
+use focal_testkit::{chi2_sphere_test, Chi2Options, TestRng};
+use glam::{Vec2, Vec3};
+
+const ETA: f32 = 1.5;
+
+fn white() -> Texture {
+    Texture::constant(1.0)
+}
+
+fn dir(theta_deg: f32, phi_deg: f32) -> Vec3 {
+    let (t, p) = (theta_deg.to_radians(), phi_deg.to_radians());
+    Vec3::new(t.sin() * p.cos(), t.sin() * p.sin(), t.cos())
+}
+
+fn diffuse(r: f32) -> Bsdf {
+    Bsdf::Diffuse(Diffuse {
+        reflectance: Texture::constant(r),
+    })
+}
+
+fn rough_conductor(kind: MicrofacetKind, au: f32, av: f32, visible: bool) -> Bsdf {
+    Bsdf::RoughConductor(Box::new(RoughConductor {
+        distribution: Microfacet::new(kind, au, av, visible),
+        eta: Texture::Constant(Rgb::ZERO),
+        k: Texture::Constant(Rgb::ONE),
+        specular_reflectance: white(),
+    }))
+}
+
+fn rough_dielectric(kind: MicrofacetKind, au: f32, av: f32, visible: bool) -> Bsdf {
+    Bsdf::RoughDielectric(Box::new(RoughDielectric {
+        distribution: Microfacet::new(kind, au, av, visible),
+        eta: ETA,
+        specular_reflectance: white(),
+        specular_transmittance: white(),
+    }))
+}
+
+fn rough_plastic(kind: MicrofacetKind, alpha: f32, diffuse: f32, nonlinear: bool) -> Bsdf {
+    Bsdf::RoughPlastic(Box::new(RoughPlastic::new(
+        kind,
+        alpha,
+        true,
+        ETA,
+        Texture::constant(diffuse),
+        None,
+        nonlinear,
+    )))
+}
+
+fn plastic(diffuse: f32, nonlinear: bool) -> Bsdf {
+    Bsdf::Plastic(Box::new(Plastic::new(
+        ETA,
+        Texture::constant(diffuse),
+        None,
+        nonlinear,
+    )))
+}
+
+/// What a test case expects of the white-furnace mean E[weight · η²] (η² undoes the radiance scaling
+/// of refraction, so that energy conservation is tested).
+#[derive(Clone, Copy, Debug)]
+enum Energy {
+    /// ≈ 1 (lossless model with unit reflectances).
+    One,
+    /// ≤ 1 (lossy model, e.g. microfacet shadowing).
+    AtMostOne,
+}
+
+struct Case {
+    name: String,
+    bsdf: Bsdf,
+    wi: Vec3,
+    energy: Energy,
+}
+
+fn cases() -> Vec<Case> {
+    let mut out = Vec::new();
+    let mut add = |name: String, bsdf: &Bsdf, wis: &[Vec3], energy: Energy| {
+        for (i, wi) in wis.iter().enumerate() {
+            out.push(Case {
+                name: format!("{name} wi#{i}"),
+                bsdf: bsdf.clone(),
+                wi: *wi,
+                energy,
+            });
+        }
+    };
+    let front = [dir(0.0, 0.0), dir(45.0, 30.0), dir(80.0, 200.0)];
+    let both = [
+        dir(0.0, 0.0),
+        dir(80.0, 30.0),
+        dir(150.0, 70.0),
+        dir(100.0, 250.0),
+    ];
+
+    add("diffuse".into(), &diffuse(1.0), &front, Energy::One);
+    add(
+        "conductor none".into(),
+        &Bsdf::Conductor(Box::new(Conductor {
+            eta: Texture::Constant(Rgb::ZERO),
+            k: Texture::Constant(Rgb::ONE),
+            specular_reflectance: white(),
+        })),
+        &front,
+        Energy::One,
+    );
+    for kind in [MicrofacetKind::Beckmann, MicrofacetKind::Ggx] {
+        for alpha in [0.05f32, 0.3, 0.8] {
+            add(
+                format!("roughconductor {kind:?} α={alpha}"),
+                &rough_conductor(kind, alpha, alpha, true),
+                &front,
+                Energy::AtMostOne,
+            );
+            add(
+                format!("roughdielectric {kind:?} α={alpha}"),
+                &rough_dielectric(kind, alpha, alpha, true),
+                &both,
+                Energy::AtMostOne,
+            );
+            add(
+                format!("roughplastic {kind:?} α={alpha}"),
+                &rough_plastic(kind, alpha, 1.0, false),
+                &front,
+                Energy::AtMostOne,
+            );
+        }
+        add(
+            format!("roughconductor {kind:?} aniso"),
+            &rough_conductor(kind, 0.05, 0.4, true),
+            &front,
+            Energy::AtMostOne,
+        );
+        add(
+            format!("roughdielectric {kind:?} aniso"),
+            &rough_dielectric(kind, 0.4, 0.1, true),
+            &both,
+            Energy::AtMostOne,
+        );
+        add(
+            format!("roughconductor {kind:?} full NDF"),
+            &rough_conductor(kind, 0.3, 0.15, false),
+            &front,
+            Energy::AtMostOne,
+        );
+        add(
+            format!("roughdielectric {kind:?} full NDF"),
+            &rough_dielectric(kind, 0.3, 0.3, false),
+            &both,
+            Energy::AtMostOne,
+        );
+    }
+    add(
+        "dielectric".into(),
+        &Bsdf::Dielectric(Dielectric {
+            eta: ETA,
+            specular_reflectance: white(),
+            specular_transmittance: white(),
+        }),
+        &both,
+        Energy::One,
+    );
+    add(
+        "thindielectric".into(),
+        &Bsdf::ThinDielectric(ThinDielectric {
+            eta: ETA,
+            specular_reflectance: white(),
+            specular_transmittance: white(),
+        }),
+        &both,
+        Energy::One,
+    );
+    add(
+        "plastic".into(),
+        &plastic(1.0, false),
+        &front,
+        Energy::AtMostOne,
+    );
+    add(
+        "plastic nonlinear".into(),
+        &plastic(0.6, true),
+        &front,
+        Energy::AtMostOne,
+    );
+    add(
+        "roughplastic nonlinear".into(),
+        &rough_plastic(MicrofacetKind::Ggx, 0.2, 0.6, true),
+        &front,
+        Energy::AtMostOne,
+    );
+    let below = [dir(180.0, 0.0), dir(120.0, 40.0), dir(100.0, 300.0)];
+    let ts = |front: Bsdf, back: Bsdf| {
+        Bsdf::TwoSided(TwoSided {
+            sides: Box::new([front, back]),
+        })
+    };
+    add(
+        "twosided diffuse".into(),
+        &ts(diffuse(1.0), diffuse(1.0)),
+        &below,
+        Energy::One,
+    );
+    let rc = rough_conductor(MicrofacetKind::Ggx, 0.3, 0.3, true);
+    add(
+        "twosided roughconductor".into(),
+        &ts(rc.clone(), rc.clone()),
+        &below,
+        Energy::AtMostOne,
+    );
+    add(
+        "twosided diffuse|roughconductor".into(),
+        &ts(diffuse(1.0), rc),
+        &[dir(30.0, 10.0), dir(120.0, 40.0)],
+        Energy::AtMostOne,
+    );
+    add(
+        "twosided plastic".into(),
+        &ts(plastic(1.0, false), plastic(1.0, false)),
+        &below,
+        Energy::AtMostOne,
+    );
+    out
+}
+
+/// Chi-square, weight consistency and white-furnace energy, all on the same samples, for the cases whose
+/// name starts with one of `prefixes`. The Šidák correction counts every case of [`cases`], so the whole
+/// suite has a 1 % false-rejection probability.
+fn check_cases(prefixes: &[&str]) {
+    let ctx = BsdfContext::default();
+    let all = cases();
+    let num_tests = all.len();
+    let cases: Vec<&Case> = all
+        .iter()
+        .filter(|c| prefixes.iter().any(|p| c.name.starts_with(p)))
+        .collect();
+    assert!(!cases.is_empty());
+    let mut failures = Vec::new();
+    for case in &cases {
+        let bsdf = &case.bsdf;
+        let wi = case.wi;
+        let mut weight_sum = 0.0f64;
+        let mut count = 0usize;
+        let mut worst_consistency = 0.0f32;
+        let mut consistency_note = String::new();
+        let opts = Chi2Options {
+            num_tests,
+            samples: 150_000,
+            ..Chi2Options::default()
+        };
+        let result = chi2_sphere_test(
+            |u2, u1| {
+                count += 1;
+                let s = bsdf.sample(&ctx, wi, u1, u2)?;
+                assert!(
+                    s.weight.is_finite() && s.pdf.is_finite() && s.wo.is_finite(),
+                    "{}: non-finite sample {s:?}",
+                    case.name
+                );
+                assert!(
+                    s.weight.min_element() >= 0.0,
+                    "{}: negative weight {s:?}",
+                    case.name
+                );
+                weight_sum += (s.weight.x * s.eta * s.eta) as f64;
+                if s.delta {
+                    return Some((s.wo, 0.0));
+                }
+                let eval = bsdf.eval(&ctx, wi, s.wo);
+                let pdf = bsdf.pdf(&ctx, wi, s.wo);
+                let expected = eval / pdf;
+                let err_w = ((s.weight - expected).abs() / expected.abs().max(Rgb::splat(1e-3)))
+                    .max_element();
+                // The pdf is recomputed from a reconstructed half vector, which loses some precision.
+                let err_p = 0.1 * (s.pdf - pdf).abs() / pdf.max(1e-3);
+                let err = err_w.max(err_p);
+                if err > worst_consistency {
+                    worst_consistency = err;
+                    consistency_note = format!(
+                        "wo {:?}: weight {} vs eval/pdf {}, pdf {} vs {}",
+                        s.wo, s.weight, expected, s.pdf, pdf
+                    );
+                }
+                Some((s.wo, 1.0))
+            },
+            |wo| bsdf.pdf(&ctx, wi, wo) as f64,
+            opts,
+        );
+        if !result.passed {
+            failures.push(format!("{}: chi2 {result}", case.name));
+        }
+        if worst_consistency > 1e-3 {
+            failures.push(format!("{}: sample weight/pdf inconsistent (rel. err {worst_consistency:.2e}): {consistency_note}", case.name));
+        }
+        let mean = weight_sum / count as f64;
+        let ok = match case.energy {
+            Energy::One => (mean - 1.0).abs() < 0.01,
+            Energy::AtMostOne => mean < 1.01,
+        };
+        if !ok {
+            failures.push(format!(
+                "{}: white furnace mean {mean:.4} violates {:?}",
+                case.name, case.energy
+            ));
+        }
+    }
+    assert!(
+        failures.is_empty(),
+        "{} failures in {} cases:\n{}",
+        failures.len(),
+        cases.len(),
+        failures.join("\n")
+    );
+}
+
+#[test]
+fn chi2_conductors_and_diffuse() {
+    check_cases(&["diffuse", "conductor", "roughconductor"]);
+}
+
+#[test]
+fn chi2_dielectrics() {
+    check_cases(&["dielectric", "roughdielectric", "thindielectric"]);
+}
+
+#[test]
+fn chi2_plastics_and_twosided() {
+    check_cases(&["plastic", "roughplastic", "twosided"]);
+}
+
+/// f(wi, wo) = f(wo, wi) for the reflection lobes (eval includes |cos θo|, so compare eval/|cos θo|).
+#[test]
+fn reflection_is_reciprocal() {
+    let ctx = BsdfContext::default();
+    let models = [
+        diffuse(0.7),
+        rough_conductor(MicrofacetKind::Beckmann, 0.2, 0.5, true),
+        rough_conductor(MicrofacetKind::Ggx, 0.3, 0.3, true),
+        rough_dielectric(MicrofacetKind::Ggx, 0.3, 0.3, true),
+        rough_dielectric(MicrofacetKind::Beckmann, 0.5, 0.5, true),
+        plastic(0.5, false),
+        rough_plastic(MicrofacetKind::Beckmann, 0.3, 0.5, false),
+    ];
+    let mut rng = TestRng::new(7);
+    for b in &models {
+        for _ in 0..2000 {
+            let u = |rng: &mut TestRng| Vec2::new(rng.next_f32(), rng.next_f32());
+            let a = focal_render::warp::square_to_cosine_hemisphere(u(&mut rng));
+            let c = focal_render::warp::square_to_cosine_hemisphere(u(&mut rng));
+            if a.z < 1e-3 || c.z < 1e-3 {
+                continue;
+            }
+            let fac = b.eval(&ctx, a, c) / c.z;
+            let fca = b.eval(&ctx, c, a) / a.z;
+            let err = ((fac - fca).abs() / fac.abs().max(Rgb::splat(1e-4))).max_element();
+            assert!(
+                err < 1e-3,
+                "{b:?}: f({a}, {c}) = {fac} but f({c}, {a}) = {fca}"
+            );
+        }
+    }
+}
+
+/// One-sided models are black from below; two-sided and dielectrics are not.
+#[test]
+fn sidedness() {
+    let ctx = BsdfContext::default();
+    let below = dir(150.0, 20.0);
+    let below2 = dir(120.0, 200.0);
+    for b in [
+        diffuse(0.5),
+        rough_conductor(MicrofacetKind::Ggx, 0.3, 0.3, true),
+        plastic(0.5, false),
+    ] {
+        assert_eq!(b.eval(&ctx, below, below2), Rgb::ZERO);
+        assert_eq!(b.pdf(&ctx, below, below2), 0.0);
+        assert!(b.sample(&ctx, below, 0.3, Vec2::new(0.4, 0.6)).is_none());
+    }
+    let ts = Bsdf::TwoSided(TwoSided {
+        sides: Box::new([diffuse(0.5), diffuse(0.5)]),
+    });
+    assert!(ts.eval(&ctx, below, below2).x > 0.0);
+    let d = rough_dielectric(MicrofacetKind::Ggx, 0.3, 0.3, true);
+    assert!(d.eval(&ctx, below, below2).x > 0.0);
+}
+
+/// The white-furnace albedo of the smooth plastic approaches Mitsuba's model: with a white base and
+/// `nonlinear = false`, the diffuse part reflects (1 − F_i)·(1 − Fdr_ext)/((1 − Fdr_int)·η²) ≈ 1 − F_i.
+#[test]
+fn plastic_white_furnace_is_nearly_lossless() {
+    let ctx = BsdfContext::default();
+    let b = plastic(1.0, false);
+    let mut rng = TestRng::new(3);
+    let wi = dir(30.0, 0.0);
+    let n = 200_000;
+    let mut sum = 0.0f64;
+    for _ in 0..n {
+        if let Some(s) = b.sample(
+            &ctx,
+            wi,
+            rng.next_f32(),
+            Vec2::new(rng.next_f32(), rng.next_f32()),
+        ) {
+            sum += s.weight.x as f64;
+        }
+    }
+    let mean = sum / n as f64;
+    assert!(mean > 0.97 && mean < 1.01, "{mean}");
+}
+
+/// Flags and roughness summaries.
+#[test]
+fn flags_and_roughness() {
+    let rc = rough_conductor(MicrofacetKind::Beckmann, 0.2, 0.4, true);
+    assert!(rc.has_smooth() && !rc.has_delta());
+    assert_eq!(rc.min_roughness(), 0.2);
+    assert_eq!(diffuse(0.5).min_roughness(), f32::INFINITY);
+    let p = plastic(0.5, false);
+    assert!(p.has_smooth() && p.has_delta());
+    assert_eq!(p.min_roughness(), 0.0);
+    assert_eq!(
+        rough_plastic(MicrofacetKind::Ggx, 0.3, 0.5, false).min_roughness(),
+        0.3
+    );
+    let d = Bsdf::Dielectric(Dielectric {
+        eta: ETA,
+        specular_reflectance: white(),
+        specular_transmittance: white(),
+    });
+    assert!(!d.has_smooth() && d.has_delta() && d.has_transmission());
+    let a = p.albedo(&BsdfContext::default());
+    assert!(a.x > 0.5 && a.x <= 1.0);
+}
+
+/// The harness is sharp enough to see a wrong distribution family or a wrong roughness.
+#[test]
+fn chi2_rejects_mismatched_models() {
+    let ctx = BsdfContext::default();
+    let wi = dir(40.0, 10.0);
+    let pairs = [
+        (
+            rough_conductor(MicrofacetKind::Ggx, 0.3, 0.3, true),
+            rough_conductor(MicrofacetKind::Beckmann, 0.3, 0.3, true),
+        ),
+        (
+            rough_conductor(MicrofacetKind::Ggx, 0.3, 0.3, true),
+            rough_conductor(MicrofacetKind::Ggx, 0.33, 0.33, true),
+        ),
+        (
+            rough_dielectric(MicrofacetKind::Beckmann, 0.3, 0.3, true),
+            rough_dielectric(MicrofacetKind::Beckmann, 0.3, 0.36, true),
+        ),
+    ];
+    for (sampler, density) in &pairs {
+        let r = chi2_sphere_test(
+            |u2, u1| {
+                sampler
+                    .sample(&ctx, wi, u1, u2)
+                    .map(|s| (s.wo, if s.delta { 0.0 } else { 1.0 }))
+            },
+            |wo| density.pdf(&ctx, wi, wo) as f64,
+            Chi2Options {
+                samples: 150_000,
+                ..Chi2Options::default()
+            },
+        );
+        assert!(!r.passed, "{sampler:?} vs {density:?}: {r}");
+    }
+}
