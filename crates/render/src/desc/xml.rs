@@ -43,7 +43,10 @@ pub fn parse_scene_str(
     if root.tag_name().name() != "scene" {
         return Err(SceneError::at(
             &loc,
-            format!("the root element must be <scene>, found <{}>", root.tag_name().name()),
+            format!(
+                "the root element must be <scene>, found <{}>",
+                root.tag_name().name()
+            ),
         ));
     }
     reader.check_attributes(root, &probe, &["version"])?;
@@ -90,7 +93,11 @@ pub fn parse_scene_str(
         children: body.children,
         loc,
     };
-    Ok(SceneDesc { root: Arc::new(scene), version, path: path.to_path_buf() })
+    Ok(SceneDesc {
+        root: Arc::new(scene),
+        version,
+        path: path.to_path_buf(),
+    })
 }
 
 /// Normalises a Mitsuba 0.6 camelCase name to Mitsuba 3's snake_case: `_` goes between a lowercase
@@ -104,7 +111,9 @@ pub fn to_snake_case(name: &str) -> String {
         if c.is_uppercase() && i > 0 {
             let prev = chars[i - 1];
             let next_is_lower = chars.get(i + 1).is_some_and(|n| n.is_lowercase());
-            if prev.is_lowercase() || prev.is_ascii_digit() || (prev.is_uppercase() && next_is_lower)
+            if prev.is_lowercase()
+                || prev.is_ascii_digit()
+                || (prev.is_uppercase() && next_is_lower)
             {
                 out.push('_');
             }
@@ -116,11 +125,18 @@ pub fn to_snake_case(name: &str) -> String {
 
 /// Parses XML text, turning roxmltree's error into a located [`SceneError`].
 fn parse_xml<'t>(text: &'t str, file: &Arc<PathBuf>) -> SceneResult<Document<'t>> {
-    let opts = ParsingOptions { allow_dtd: true, ..ParsingOptions::default() };
+    let opts = ParsingOptions {
+        allow_dtd: true,
+        ..ParsingOptions::default()
+    };
     Document::parse_with_options(text, opts).map_err(|e| {
         let pos = e.pos();
         SceneError::at(
-            &SourceLoc { file: file.clone(), line: pos.row, col: pos.col },
+            &SourceLoc {
+                file: file.clone(),
+                line: pos.row,
+                col: pos.col,
+            },
             format!("malformed XML: {e}"),
         )
     })
@@ -177,12 +193,21 @@ struct FileCtx<'a, 'input> {
 impl<'a, 'input> FileCtx<'a, 'input> {
     fn new(doc: &'a Document<'input>, file: Arc<PathBuf>, legacy: bool) -> Self {
         let dir = file.parent().map(Path::to_path_buf).unwrap_or_default();
-        FileCtx { doc, file, dir, legacy }
+        FileCtx {
+            doc,
+            file,
+            dir,
+            legacy,
+        }
     }
 
     fn loc(&self, node: Node) -> SourceLoc {
         let pos = self.doc.text_pos_at(node.range().start);
-        SourceLoc { file: self.file.clone(), line: pos.row, col: pos.col }
+        SourceLoc {
+            file: self.file.clone(),
+            line: pos.row,
+            col: pos.col,
+        }
     }
 
     fn error(&self, node: Node, message: impl Into<String>) -> SceneError {
@@ -250,7 +275,14 @@ impl Reader {
         let vars = params
             .iter()
             .map(|(k, v)| {
-                (k.clone(), Variable { value: v.clone(), from_command_line: true, used: false })
+                (
+                    k.clone(),
+                    Variable {
+                        value: v.clone(),
+                        from_command_line: true,
+                        used: false,
+                    },
+                )
             })
             .collect();
         Reader {
@@ -301,9 +333,9 @@ impl Reader {
                     return Err(ctx.error(
                         node,
                         format!(
-                            "undefined variable '${ident}' (declare it with <default name=\"{ident}\" \
+                        "undefined variable '${ident}' (declare it with <default name=\"{ident}\" \
                              value=\"...\"/> or pass -D {ident}=...)"
-                        ),
+                    ),
                     ))
                 }
             }
@@ -364,10 +396,15 @@ impl Reader {
         parse_number(text.trim()).ok_or_else(|| number_error(&text, attr, node, ctx))
     }
 
-    /// A 3-vector from `x`/`y`/`z` attributes (missing = `default`) or from `value` (1 or 3 numbers).
+    /// A 3-vector from `x`/`y`/`z` attributes (missing or empty = `default`) or from `value` (1 or 3
+    /// numbers).
     fn xyz(&mut self, node: Node, ctx: &FileCtx, default: f64) -> SceneResult<DVec3> {
         let tag = node.tag_name().name();
-        let comps = [self.attr(node, "x", ctx)?, self.attr(node, "y", ctx)?, self.attr(node, "z", ctx)?];
+        let comps = [
+            self.attr(node, "x", ctx)?,
+            self.attr(node, "y", ctx)?,
+            self.attr(node, "z", ctx)?,
+        ];
         if let Some(value) = self.attr(node, "value", ctx)? {
             if comps.iter().any(Option::is_some) {
                 return Err(ctx.error(
@@ -387,8 +424,9 @@ impl Reader {
         }
         let mut v = [default; 3];
         for (slot, (text, axis)) in v.iter_mut().zip(comps.iter().zip(["x", "y", "z"])) {
-            if let Some(text) = text {
-                *slot = parse_number(text.trim()).ok_or_else(|| number_error(text, axis, node, ctx))?;
+            if let Some(text) = text.as_ref().filter(|t| !t.trim().is_empty()) {
+                *slot =
+                    parse_number(text.trim()).ok_or_else(|| number_error(text, axis, node, ctx))?;
             }
         }
         Ok(DVec3::from_array(v))
@@ -396,12 +434,18 @@ impl Reader {
 
     /// A vector attribute of exactly three numbers (`lookat`'s origin/target/up).
     fn vec3_attr(&mut self, node: Node, attr: &str, ctx: &FileCtx) -> SceneResult<Option<DVec3>> {
-        let Some(text) = self.attr(node, attr, ctx)? else { return Ok(None) };
+        let Some(text) = self.attr(node, attr, ctx)? else {
+            return Ok(None);
+        };
         let n = self.numbers(&text, attr, node, ctx)?;
         if n.len() != 3 {
             return Err(ctx.error(
                 node,
-                format!("'{attr}' of <{}> must have 3 numbers, found {}", node.tag_name().name(), n.len()),
+                format!(
+                    "'{attr}' of <{}> must have 3 numbers, found {}",
+                    node.tag_name().name(),
+                    n.len()
+                ),
             ));
         }
         Ok(Some(DVec3::new(n[0], n[1], n[2])))
@@ -453,10 +497,9 @@ impl Reader {
             "path" => self.parse_search_path(node, ctx, at_root),
             "scene" => Err(ctx.error(node, "<scene> can only be the root element")),
             "null" => Err(ctx.error(node, "<null> is not supported (remove the element)")),
-            "translate" | "rotate" | "scale" | "matrix" | "lookat" | "lookAt" => Err(ctx.error(
-                node,
-                format!("<{tag}> can only occur inside a <transform>"),
-            )),
+            "translate" | "rotate" | "scale" | "matrix" | "lookat" | "lookAt" => {
+                Err(ctx.error(node, format!("<{tag}> can only occur inside a <transform>")))
+            }
             _ => {
                 let class = match plugin_class(tag) {
                     Some(c) => c,
@@ -508,9 +551,17 @@ impl Reader {
         Ok(ChildDesc { name, object })
     }
 
-    fn register_id(&mut self, id: String, object: Arc<ObjectDesc>, loc: &SourceLoc) -> SceneResult<()> {
+    fn register_id(
+        &mut self,
+        id: String,
+        object: Arc<ObjectDesc>,
+        loc: &SourceLoc,
+    ) -> SceneResult<()> {
         if let Some((_, first)) = self.ids.get(&id) {
-            return Err(SceneError::at(loc, format!("duplicate id '{id}' (first declared at {first})")));
+            return Err(SceneError::at(
+                loc,
+                format!("duplicate id '{id}' (first declared at {first})"),
+            ));
         }
         self.ids.insert(id, (object, loc.clone()));
         Ok(())
@@ -527,7 +578,10 @@ impl Reader {
                 format!("<ref> to unknown id '{id}' (objects must be declared before they are referenced)"),
             ));
         };
-        let child = ChildDesc { name, object: object.clone() };
+        let child = ChildDesc {
+            name,
+            object: object.clone(),
+        };
         body.add_child(child, &ctx.loc(node))
     }
 
@@ -554,9 +608,11 @@ impl Reader {
                 format!("invalid <default> name '{name}' (use letters, digits and '_')"),
             ));
         }
-        self.vars
-            .entry(name)
-            .or_insert(Variable { value, from_command_line: false, used: false });
+        self.vars.entry(name).or_insert(Variable {
+            value,
+            from_command_line: false,
+            used: false,
+        });
         Ok(())
     }
 
@@ -602,12 +658,18 @@ impl Reader {
         let Some(path) = self.locate(&rel, ctx) else {
             return Err(ctx.error(
                 node,
-                format!("included file '{rel}' not found (looked in {})", ctx.dir.join(&rel).display()),
+                format!(
+                    "included file '{rel}' not found (looked in {})",
+                    ctx.dir.join(&rel).display()
+                ),
             ));
         };
         let key = canonical(&path);
         if self.include_stack.contains(&key) {
-            return Err(ctx.error(node, format!("include cycle: '{}' includes itself", path.display())));
+            return Err(ctx.error(
+                node,
+                format!("include cycle: '{}' includes itself", path.display()),
+            ));
         }
         if self.include_stack.len() > MAX_INCLUDE_DEPTH {
             return Err(ctx.error(
@@ -616,7 +678,10 @@ impl Reader {
             ));
         }
         let text = std::fs::read_to_string(&path).map_err(|e| {
-            ctx.error(node, format!("cannot read included file '{}': {e}", path.display()))
+            ctx.error(
+                node,
+                format!("cannot read included file '{}': {e}", path.display()),
+            )
         })?;
         let file = Arc::new(path);
         let doc = parse_xml(&text, &file)?;
@@ -657,7 +722,10 @@ impl Reader {
                 self.check_attributes(node, ctx, &["name", "value"])?;
                 let text = self.required(node, "value", ctx)?;
                 let v = text.trim().parse::<i64>().map_err(|_| {
-                    ctx.error(node, format!("could not parse integer value \"{text}\" in <integer>"))
+                    ctx.error(
+                        node,
+                        format!("could not parse integer value \"{text}\" in <integer>"),
+                    )
                 })?;
                 PropValue::Integer(v)
             }
@@ -670,7 +738,9 @@ impl Reader {
                     _ => {
                         return Err(ctx.error(
                             node,
-                            format!("could not parse boolean value \"{text}\" (must be true or false)"),
+                            format!(
+                                "could not parse boolean value \"{text}\" (must be true or false)"
+                            ),
                         ))
                     }
                 }
@@ -686,8 +756,11 @@ impl Reader {
                 PropValue::String(text)
             }
             "rgb" | "color" | "srgb" => {
-                let allowed: &[&str] =
-                    if ctx.legacy { &["name", "value", "intent"] } else { &["name", "value"] };
+                let allowed: &[&str] = if ctx.legacy {
+                    &["name", "value", "intent"]
+                } else {
+                    &["name", "value"]
+                };
                 self.check_attributes(node, ctx, allowed)?;
                 let text = self.required(node, "value", ctx)?;
                 let c = if tag == "srgb" {
@@ -695,7 +768,11 @@ impl Reader {
                         Some(c) => c,
                         None => self.colour_triple(&text, node, ctx)?,
                     };
-                    Vec3::new(srgb_to_linear(c.x), srgb_to_linear(c.y), srgb_to_linear(c.z))
+                    Vec3::new(
+                        srgb_to_linear(c.x),
+                        srgb_to_linear(c.y),
+                        srgb_to_linear(c.z),
+                    )
                 } else {
                     self.colour_triple(&text, node, ctx)?
                 };
@@ -706,9 +783,9 @@ impl Reader {
                 self.check_attributes(node, ctx, &["name", "temperature", "scale"])?;
                 let text = self.required(node, "temperature", ctx)?;
                 let t = text.trim().trim_end_matches(['k', 'K']);
-                let t = parse_number(t)
-                    .filter(|t| *t > 0.0)
-                    .ok_or_else(|| ctx.error(node, format!("invalid black body temperature \"{text}\"")))?;
+                let t = parse_number(t).filter(|t| *t > 0.0).ok_or_else(|| {
+                    ctx.error(node, format!("invalid black body temperature \"{text}\""))
+                })?;
                 if let Some(scale) = self.attr(node, "scale", ctx)? {
                     if parse_number(scale.trim()) != Some(1.0) {
                         return Err(ctx.error(
@@ -745,14 +822,24 @@ impl Reader {
             3 => Ok(DVec3::new(n[0], n[1], n[2]).as_vec3()),
             k => Err(ctx.error(
                 node,
-                format!("<{}> needs one or three values, found {k} in \"{text}\"", node.tag_name().name()),
+                format!(
+                    "<{}> needs one or three values, found {k} in \"{text}\"",
+                    node.tag_name().name()
+                ),
             )),
         }
     }
 
     fn parse_spectrum(&mut self, node: Node, ctx: &FileCtx) -> SceneResult<SpectrumDesc> {
         let allowed: &[&str] = if ctx.legacy {
-            &["name", "value", "filename", "wavelengths", "values", "intent"]
+            &[
+                "name",
+                "value",
+                "filename",
+                "wavelengths",
+                "values",
+                "intent",
+            ]
         } else {
             &["name", "value", "filename", "wavelengths", "values"]
         };
@@ -796,19 +883,28 @@ impl Reader {
                 return Ok(SpectrumDesc::Uniform(n[0]));
             }
             let mut pairs = Vec::new();
-            for token in text.split(|c: char| c == ',' || c.is_whitespace()).filter(|t| !t.is_empty()) {
+            for token in text
+                .split(|c: char| c == ',' || c.is_whitespace())
+                .filter(|t| !t.is_empty())
+            {
                 let pair = token
                     .split_once(':')
                     .and_then(|(l, v)| Some((parse_number(l)?, parse_number(v)?)))
                     .ok_or_else(|| {
-                        ctx.error(node, format!("could not parse wavelength:value pair \"{token}\""))
+                        ctx.error(
+                            node,
+                            format!("could not parse wavelength:value pair \"{token}\""),
+                        )
                     })?;
                 pairs.push(pair);
             }
             pairs
         };
         if pairs.windows(2).any(|w| w[1].0 <= w[0].0) || pairs[0].0 <= 0.0 {
-            return Err(ctx.error(node, "<spectrum> wavelengths must be positive and increasing"));
+            return Err(ctx.error(
+                node,
+                "<spectrum> wavelengths must be positive and increasing",
+            ));
         }
         Ok(SpectrumDesc::Sampled(pairs))
     }
@@ -851,10 +947,8 @@ impl Reader {
                         16 => DMat4::from_cols_slice(&n).transpose(),
                         9 => DMat4::from_mat3(DMat3::from_cols_slice(&n).transpose()),
                         k => {
-                            return Err(ctx.error(
-                                op,
-                                format!("<matrix> needs 16 (or 9) numbers, found {k}"),
-                            ))
+                            return Err(ctx
+                                .error(op, format!("<matrix> needs 16 (or 9) numbers, found {k}")))
                         }
                     }
                 }
@@ -873,9 +967,9 @@ impl Reader {
                     return Err(ctx.error(
                         op,
                         format!(
-                            "unexpected <{other}> in <transform> (expected translate, rotate, scale, \
+                        "unexpected <{other}> in <transform> (expected translate, rotate, scale, \
                              matrix or lookat)"
-                        ),
+                    ),
                     ))
                 }
             };
@@ -939,7 +1033,11 @@ fn parse_hex_colour(text: &str) -> Option<Vec3> {
     if hex.len() != 6 || !hex.is_ascii() {
         return None;
     }
-    let channel = |i: usize| u8::from_str_radix(&hex[i..i + 2], 16).ok().map(|v| v as f32 / 255.0);
+    let channel = |i: usize| {
+        u8::from_str_radix(&hex[i..i + 2], 16)
+            .ok()
+            .map(|v| v as f32 / 255.0)
+    };
     Some(Vec3::new(channel(0)?, channel(2)?, channel(4)?))
 }
 
@@ -958,10 +1056,15 @@ fn check_no_text(node: Node, ctx: &FileCtx) -> SceneResult<()> {
 /// BSDF's `diffuse_reflectance` is its `reflectance`, and `uoffset`/`voffset`/`uscale`/`vscale` become
 /// a `to_uv` transform (translate, then scale).
 fn upgrade_legacy(class: &ObjectClass, plugin: &str, body: &mut Body) -> SceneResult<()> {
-    if *class == ObjectClass::Bsdf && plugin == "diffuse" && !body.names.contains_key("reflectance") {
+    if *class == ObjectClass::Bsdf && plugin == "diffuse" && !body.names.contains_key("reflectance")
+    {
         if let Some(loc) = body.names.remove("diffuse_reflectance") {
             body.names.insert("reflectance".into(), loc);
-            for p in body.props.iter_mut().filter(|p| p.name == "diffuse_reflectance") {
+            for p in body
+                .props
+                .iter_mut()
+                .filter(|p| p.name == "diffuse_reflectance")
+            {
                 p.name = "reflectance".into();
             }
             for c in body.children.iter_mut() {
@@ -996,7 +1099,11 @@ fn upgrade_legacy(class: &ObjectClass, plugin: &str, body: &mut Body) -> SceneRe
             body.names.remove(n);
         }
         let m = DMat4::from_scale(scale.extend(1.0)) * DMat4::from_translation(offset.extend(0.0));
-        body.add_prop(Property { name: "to_uv".into(), value: PropValue::Transform(m.as_mat4()), loc })?;
+        body.add_prop(Property {
+            name: "to_uv".into(),
+            value: PropValue::Transform(m.as_mat4()),
+            loc,
+        })?;
     }
     Ok(())
 }

@@ -27,7 +27,9 @@ impl MeshData {
         let mut acc = vec![DVec3::ZERO; self.positions.len()];
         for tri in &self.indices {
             let Some(p) = self.corners(tri) else { continue };
-            let Some(n) = (p[1] - p[0]).cross(p[2] - p[0]).try_normalize() else { continue };
+            let Some(n) = (p[1] - p[0]).cross(p[2] - p[0]).try_normalize() else {
+                continue;
+            };
             for k in 0..3 {
                 let d0 = (p[(k + 1) % 3] - p[k]).try_normalize();
                 let d1 = (p[(k + 2) % 3] - p[k]).try_normalize();
@@ -64,7 +66,10 @@ impl MeshData {
         let n = self.positions.len();
         let fail = |msg: String| Err(SceneError::in_file(file, msg));
         if let Some(i) = self.positions.iter().position(|p| !p.is_finite()) {
-            return fail(format!("vertex {i} has a non-finite position {}", self.positions[i]));
+            return fail(format!(
+                "vertex {i} has a non-finite position {}",
+                self.positions[i]
+            ));
         }
         if let Some(normals) = &self.normals {
             if normals.len() != n {
@@ -76,10 +81,16 @@ impl MeshData {
         }
         if let Some(uvs) = &self.uvs {
             if uvs.len() != n {
-                return fail(format!("{} texture coordinates for {n} vertices", uvs.len()));
+                return fail(format!(
+                    "{} texture coordinates for {n} vertices",
+                    uvs.len()
+                ));
             }
             if let Some(i) = uvs.iter().position(|v| !v.is_finite()) {
-                return fail(format!("vertex {i} has non-finite texture coordinates {}", uvs[i]));
+                return fail(format!(
+                    "vertex {i} has non-finite texture coordinates {}",
+                    uvs[i]
+                ));
             }
         }
         for (f, tri) in self.indices.iter().enumerate() {
@@ -142,8 +153,16 @@ mod tests {
             [0, 4, 6, 2], // x = -1
             [1, 3, 7, 5], // x = +1
         ];
-        let indices = quads.iter().flat_map(|q| [[q[0], q[1], q[2]], [q[0], q[2], q[3]]]).collect();
-        MeshData { positions, normals: None, uvs: None, indices }
+        let indices = quads
+            .iter()
+            .flat_map(|q| [[q[0], q[1], q[2]], [q[0], q[2], q[3]]])
+            .collect();
+        MeshData {
+            positions,
+            normals: None,
+            uvs: None,
+            indices,
+        }
     }
 
     #[test]
@@ -164,7 +183,10 @@ mod tests {
             // Angle weighting gives each of the three faces at a corner 90°, however the quads were
             // split, so the normal is exactly the diagonal; area or count weighting would tilt it.
             let expected = p.normalize();
-            assert!((*n - expected).length() < 1e-6, "normal {n} at {p}, expected {expected}");
+            assert!(
+                (*n - expected).length() < 1e-6,
+                "normal {n} at {p}, expected {expected}"
+            );
         }
     }
 
@@ -176,9 +198,17 @@ mod tests {
             uvs: None,
             indices: vec![[0, 1, 2]],
         };
-        let t = Mat4::from_translation(Vec3::new(0.0, 0.0, 5.0)) * Mat4::from_scale(Vec3::new(2.0, 1.0, 1.0));
+        let t = Mat4::from_translation(Vec3::new(0.0, 0.0, 5.0))
+            * Mat4::from_scale(Vec3::new(2.0, 1.0, 1.0));
         m.transform(&t);
-        assert_eq!(m.positions, vec![Vec3::new(0.0, 0.0, 5.0), Vec3::new(2.0, 0.0, 5.0), Vec3::new(0.0, 1.0, 5.0)]);
+        assert_eq!(
+            m.positions,
+            vec![
+                Vec3::new(0.0, 0.0, 5.0),
+                Vec3::new(2.0, 0.0, 5.0),
+                Vec3::new(0.0, 1.0, 5.0)
+            ]
+        );
         let n = m.normals.as_ref().unwrap();
         // The surface x + y = c becomes x/2 + y = c: normal (0.5, 1, 0).
         assert!((n[0] - Vec3::new(0.5, 1.0, 0.0).normalize()).length() < 1e-6);
@@ -198,11 +228,17 @@ mod tests {
         assert!(m.validate(file).is_ok());
         m.indices.push([0, 1, 8]);
         let e = m.validate(file).unwrap_err().to_string();
-        assert!(e.contains("broken_mesh.obj") && e.contains("face 12") && e.contains("vertex 8"), "{e}");
+        assert!(
+            e.contains("broken_mesh.obj") && e.contains("face 12") && e.contains("vertex 8"),
+            "{e}"
+        );
         m.indices.pop();
         m.positions[3].y = f32::NAN;
         let e = m.validate(file).unwrap_err().to_string();
-        assert!(e.contains("broken_mesh.obj") && e.contains("vertex 3"), "{e}");
+        assert!(
+            e.contains("broken_mesh.obj") && e.contains("vertex 3"),
+            "{e}"
+        );
         m.positions[3].y = 1.0;
         m.uvs = Some(vec![Vec2::ZERO; 7]);
         assert!(m.validate(file).is_err());

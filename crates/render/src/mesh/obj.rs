@@ -10,23 +10,23 @@ use std::path::Path;
 /// Normals are kept only if every vertex has a usable one; otherwise the caller computes them.
 pub fn load_obj(path: &Path, loc: &SourceLoc, flip_tex_coords: bool) -> SceneResult<MeshData> {
     if !path.is_file() {
-        return Err(SceneError::at(loc, format!("OBJ file '{}' not found", path.display())));
+        return Err(SceneError::at(
+            loc,
+            format!("OBJ file '{}' not found", path.display()),
+        ));
     }
-    let options = tobj::LoadOptions {
-        single_index: true,
-        triangulate: true,
-        ignore_points: true,
-        ignore_lines: true,
-        ..Default::default()
-    };
-    // Materials are Mitsuba's business (BSDFs in the XML), so a missing .mtl is not an error.
-    let (models, _materials) = tobj::load_obj(path, &options).map_err(|e| {
-        SceneError::at(loc, format!("cannot load OBJ file '{}': {e}", path.display()))
+    // One index buffer, polygons fanned into triangles, points and lines ignored. Materials are
+    // Mitsuba's business (BSDFs in the XML), so a missing .mtl is not an error.
+    let (models, _materials) = tobj::load_obj(path, &tobj::GPU_LOAD_OPTIONS).map_err(|e| {
+        SceneError::at(
+            loc,
+            format!("cannot load OBJ file '{}': {e}", path.display()),
+        )
     })?;
 
-    let all_have_normals = models.iter().all(|m| {
-        !m.mesh.normals.is_empty() && m.mesh.normals.len() == m.mesh.positions.len()
-    });
+    let all_have_normals = models
+        .iter()
+        .all(|m| !m.mesh.normals.is_empty() && m.mesh.normals.len() == m.mesh.positions.len());
     let any_has_uvs = models.iter().any(|m| !m.mesh.texcoords.is_empty());
     let mut mesh = MeshData {
         normals: all_have_normals.then(Vec::new),
@@ -37,15 +37,25 @@ pub fn load_obj(path: &Path, loc: &SourceLoc, flip_tex_coords: bool) -> SceneRes
         let m = &model.mesh;
         let base = u32::try_from(mesh.positions.len()).map_err(|_| too_large(path, loc))?;
         let count = m.positions.len() / 3;
-        mesh.positions.extend(m.positions.chunks_exact(3).map(|p| Vec3::new(p[0], p[1], p[2])));
+        mesh.positions.extend(
+            m.positions
+                .chunks_exact(3)
+                .map(|p| Vec3::new(p[0], p[1], p[2])),
+        );
         if let Some(normals) = &mut mesh.normals {
-            normals.extend(m.normals.chunks_exact(3).map(|n| Vec3::new(n[0], n[1], n[2])));
+            normals.extend(
+                m.normals
+                    .chunks_exact(3)
+                    .map(|n| Vec3::new(n[0], n[1], n[2])),
+            );
         }
         if let Some(uvs) = &mut mesh.uvs {
             if m.texcoords.len() == 2 * count {
-                uvs.extend(m.texcoords.chunks_exact(2).map(|t| {
-                    Vec2::new(t[0], if flip_tex_coords { 1.0 - t[1] } else { t[1] })
-                }));
+                uvs.extend(
+                    m.texcoords
+                        .chunks_exact(2)
+                        .map(|t| Vec2::new(t[0], if flip_tex_coords { 1.0 - t[1] } else { t[1] })),
+                );
             } else {
                 // Objects without (or with partial) uvs in a file where others have them.
                 uvs.extend(std::iter::repeat_n(Vec2::ZERO, count));
@@ -53,7 +63,9 @@ pub fn load_obj(path: &Path, loc: &SourceLoc, flip_tex_coords: bool) -> SceneRes
         }
         for t in m.indices.chunks_exact(3) {
             let tri = [t[0], t[1], t[2]].map(|i| base.checked_add(i));
-            let [Some(a), Some(b), Some(c)] = tri else { return Err(too_large(path, loc)) };
+            let [Some(a), Some(b), Some(c)] = tri else {
+                return Err(too_large(path, loc));
+            };
             mesh.indices.push([a, b, c]);
         }
     }
@@ -61,7 +73,10 @@ pub fn load_obj(path: &Path, loc: &SourceLoc, flip_tex_coords: bool) -> SceneRes
 }
 
 fn too_large(path: &Path, loc: &SourceLoc) -> SceneError {
-    SceneError::at(loc, format!("mesh file '{}' has more than 2^32 vertices", path.display()))
+    SceneError::at(
+        loc,
+        format!("mesh file '{}' has more than 2^32 vertices", path.display()),
+    )
 }
 
 /// Validates a freshly loaded mesh, drops unusable normals and zero-area triangles.
@@ -89,7 +104,10 @@ pub(super) fn finish(
     if mesh.indices.is_empty() {
         return Err(SceneError::at(
             loc,
-            format!("{format} file '{}' contains no triangles of non-zero area", path.display()),
+            format!(
+                "{format} file '{}' contains no triangles of non-zero area",
+                path.display()
+            ),
         ));
     }
     Ok(mesh)
@@ -102,7 +120,11 @@ mod tests {
     use std::path::PathBuf;
 
     fn loc() -> SourceLoc {
-        SourceLoc { file: std::sync::Arc::new(PathBuf::from("scene.xml")), line: 7, col: 3 }
+        SourceLoc {
+            file: std::sync::Arc::new(PathBuf::from("scene.xml")),
+            line: 7,
+            col: 3,
+        }
     }
 
     fn temp_file(name: &str, contents: &str) -> PathBuf {

@@ -10,22 +10,40 @@ use ply_rs_bw::ply::{DefaultElement, Property};
 use std::path::Path;
 
 /// Names under which PLY writers store texture coordinates.
-const UV_NAMES: [(&str, &str); 4] =
-    [("u", "v"), ("s", "t"), ("texture_u", "texture_v"), ("texture_s", "texture_t")];
+const UV_NAMES: [(&str, &str); 4] = [
+    ("u", "v"),
+    ("s", "t"),
+    ("texture_u", "texture_v"),
+    ("texture_s", "texture_t"),
+];
 
 /// Loads a PLY file as one triangle mesh. `loc` is where the scene names the file.
 pub fn load_ply(path: &Path, loc: &SourceLoc) -> SceneResult<MeshData> {
     let file = std::fs::File::open(path).map_err(|e| {
-        SceneError::at(loc, format!("cannot open PLY file '{}': {e}", path.display()))
+        SceneError::at(
+            loc,
+            format!("cannot open PLY file '{}': {e}", path.display()),
+        )
     })?;
     let mut reader = std::io::BufReader::new(file);
-    let ply = Parser::<DefaultElement>::new().read_ply(&mut reader).map_err(|e| {
-        SceneError::at(loc, format!("cannot read PLY file '{}': {e}", path.display()))
-    })?;
+    let ply = Parser::<DefaultElement>::new()
+        .read_ply(&mut reader)
+        .map_err(|e| {
+            SceneError::at(
+                loc,
+                format!("cannot read PLY file '{}': {e}", path.display()),
+            )
+        })?;
     let fail = |msg: String| SceneError::at(loc, format!("PLY file '{}': {msg}", path.display()));
 
-    let vertices = ply.payload.get("vertex").ok_or_else(|| fail("no 'vertex' element".into()))?;
-    let faces = ply.payload.get("face").ok_or_else(|| fail("no 'face' element".into()))?;
+    let vertices = ply
+        .payload
+        .get("vertex")
+        .ok_or_else(|| fail("no 'vertex' element".into()))?;
+    let faces = ply
+        .payload
+        .get("face")
+        .ok_or_else(|| fail("no 'face' element".into()))?;
 
     let mut mesh = MeshData::default();
     for (i, v) in vertices.iter().enumerate() {
@@ -102,7 +120,11 @@ mod tests {
     use std::path::PathBuf;
 
     fn loc() -> SourceLoc {
-        SourceLoc { file: std::sync::Arc::new(PathBuf::from("scene.xml")), line: 12, col: 5 }
+        SourceLoc {
+            file: std::sync::Arc::new(PathBuf::from("scene.xml")),
+            line: 12,
+            col: 5,
+        }
     }
 
     fn temp_file(name: &str, contents: &[u8]) -> PathBuf {
@@ -127,7 +149,10 @@ mod tests {
         let inside = m.positions.iter().copied().sum::<Vec3>() / 16.0;
         for t in &m.indices {
             let [a, b, c] = t.map(|i| m.positions[i as usize]);
-            assert!((b - a).cross(c - a).dot(a - inside) > 0.0, "face {t:?} points inwards");
+            assert!(
+                (b - a).cross(c - a).dot(a - inside) > 0.0,
+                "face {t:?} points inwards"
+            );
         }
     }
 
@@ -149,10 +174,19 @@ mod tests {
 
         let v = "0 0 0 0 0 1 0 0\n1 0 0 0 0 1 1 0\n1 1 0 0 0 1 1 1\n";
         let cases = [
-            ("malformed.ply", "ply\nformat ascii 1.0\nelement vertex oops\nend_header\n".to_string()),
+            (
+                "malformed.ply",
+                "ply\nformat ascii 1.0\nelement vertex oops\nend_header\n".to_string(),
+            ),
             ("truncated.ply", format!("{ASCII_HEADER}0 0 0 0 0 1 0 0\n")),
-            ("out_of_range.ply", format!("{ASCII_HEADER}{v}0 1 0 0 0 1 0 1\n3 0 1 7\n")),
-            ("nan_vertex.ply", format!("{ASCII_HEADER}{v}nan 1 0 0 0 1 0 1\n3 0 1 3\n")),
+            (
+                "out_of_range.ply",
+                format!("{ASCII_HEADER}{v}0 1 0 0 0 1 0 1\n3 0 1 7\n"),
+            ),
+            (
+                "nan_vertex.ply",
+                format!("{ASCII_HEADER}{v}nan 1 0 0 0 1 0 1\n3 0 1 3\n"),
+            ),
         ];
         for (name, text) in cases {
             let e = load_ply(&temp_file(name, text.as_bytes()), &loc()).unwrap_err();
