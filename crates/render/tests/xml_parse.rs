@@ -670,3 +670,35 @@ fn malformed_xml_and_missing_files() {
         .to_string();
     assert!(e.contains("nowhere.xml"), "{e}");
 }
+
+#[test]
+fn search_paths_resolve_filenames() {
+    let dir = temp_dir("search_path");
+    std::fs::create_dir_all(dir.join("assets")).unwrap();
+    std::fs::write(dir.join("assets/mesh.obj"), "v 0 0 0\n").unwrap();
+    std::fs::write(
+        dir.join("main.xml"),
+        r#"<scene version="3.0.0"><path value="assets"/>
+           <shape type="obj"><string name="filename" value="mesh.obj"/></shape>
+           <shape type="obj"><string name="filename" value="absent.obj"/></shape></scene>"#,
+    )
+    .unwrap();
+    let s = parse_scene_file(&dir.join("main.xml"), &[]).unwrap();
+    let (found, _) = s.root.children[0]
+        .object
+        .resolve_path("filename")
+        .unwrap()
+        .unwrap();
+    assert!(
+        found.is_file() && found.ends_with("assets/mesh.obj"),
+        "{}",
+        found.display()
+    );
+    // Files found nowhere stay relative to the XML file (the loader will report them).
+    let (absent, _) = s.root.children[1]
+        .object
+        .resolve_path("filename")
+        .unwrap()
+        .unwrap();
+    assert_eq!(absent, dir.join("absent.obj"));
+}

@@ -687,21 +687,23 @@ impl Reader {
         let doc = parse_xml(&text, &file)?;
         let root = doc.root_element();
         let probe = FileCtx::new(&doc, file.clone(), ctx.legacy);
-        self.include_stack.push(key);
-        let result = if root.tag_name().name() == "scene" {
+        let is_scene = root.tag_name().name() == "scene";
+        let mut legacy = ctx.legacy;
+        if is_scene {
             self.check_attributes(root, &probe, &["version"])?;
-            let legacy = match self.attr(root, "version", &probe)? {
-                Some(v) => {
-                    parse_version(&v).ok_or_else(|| {
-                        probe.error(root, format!("could not parse the version number '{v}'"))
-                    })? < (2, 0, 0)
-                }
-                None => ctx.legacy,
-            };
-            let inner = FileCtx::new(&doc, file, legacy);
+            if let Some(v) = self.attr(root, "version", &probe)? {
+                let version = parse_version(&v).ok_or_else(|| {
+                    probe.error(root, format!("could not parse the version number '{v}'"))
+                })?;
+                legacy = version < (2, 0, 0);
+            }
+        }
+        let inner = FileCtx::new(&doc, file, legacy);
+        self.include_stack.push(key);
+        let result = if is_scene {
             self.parse_children(root, &inner, body, at_root)
         } else {
-            self.parse_element(root, &probe, body, at_root)
+            self.parse_element(root, &inner, body, at_root)
         };
         self.include_stack.pop();
         result
