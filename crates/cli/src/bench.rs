@@ -50,7 +50,10 @@ pub fn run(a: BenchArgs) -> Result<()> {
         bail!("--repeats must be at least 1");
     }
     let mut rows = Vec::new();
-    println!("{:<10} {:>6} {:>14} {:>16} {:>8}", "scene", "spp", "focal Ms/s", "mitsuba3 Ms/s", "ratio");
+    println!(
+        "{:<10} {:>6} {:>14} {:>16} {:>8}",
+        "scene", "spp", "focal Ms/s", "mitsuba3 Ms/s", "ratio"
+    );
     for name in &a.scenes {
         let path = a.references.join("scenes").join(format!("{name}.xml"));
         let params = vec![("res".to_string(), a.res.to_string())];
@@ -66,9 +69,16 @@ pub fn run(a: BenchArgs) -> Result<()> {
         };
         let mut rates: Vec<f64> = (0..a.repeats)
             .map(|_| {
-                render(&loaded.scene, &loaded.camera, &loaded.film, integrator.as_ref(), &settings, &|_| {})
-                    .stats
-                    .samples_per_second
+                render(
+                    &loaded.scene,
+                    &loaded.camera,
+                    &loaded.film,
+                    integrator.as_ref(),
+                    &settings,
+                    &|_| {},
+                )
+                .stats
+                .samples_per_second
             })
             .collect();
         let focal = median(&mut rates);
@@ -76,12 +86,12 @@ pub fn run(a: BenchArgs) -> Result<()> {
         let mitsuba = std::fs::read_dir(a.references.join("mitsuba3"))
             .ok()
             .and_then(|dir| {
-                dir.filter_map(|e| e.ok())
-                    .map(|e| e.path())
-                    .find(|p| {
-                        p.extension().is_some_and(|e| e == "json")
-                            && p.file_name().and_then(|f| f.to_str()).is_some_and(|f| f.starts_with(&format!("{name}_")))
-                    })
+                dir.filter_map(|e| e.ok()).map(|e| e.path()).find(|p| {
+                    p.extension().is_some_and(|e| e == "json")
+                        && p.file_name()
+                            .and_then(|f| f.to_str())
+                            .is_some_and(|f| f.starts_with(&format!("{name}_")))
+                })
             })
             .map(|p| -> Result<(String, f64)> {
                 let v: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&p)?)
@@ -98,8 +108,16 @@ pub fn run(a: BenchArgs) -> Result<()> {
             name,
             a.spp,
             focal / 1e6,
-            if mts.is_finite() { format!("{:.3} ({variant})", mts / 1e6) } else { "-".into() },
-            if mts.is_finite() { format!("{:.2}x", focal / mts) } else { "-".into() }
+            if mts.is_finite() {
+                format!("{:.3} ({variant})", mts / 1e6)
+            } else {
+                "-".into()
+            },
+            if mts.is_finite() {
+                format!("{:.2}x", focal / mts)
+            } else {
+                "-".into()
+            }
         );
         rows.push(serde_json::json!({
             "scene": name, "spp": a.spp, "res": a.res, "repeats": a.repeats,

@@ -81,7 +81,11 @@ pub fn run(a: RenderArgs) -> Result<()> {
     let params = parse_defines(&a.defines)?;
     let opts = BuildOptions {
         integrator_override: a.integrator.clone(),
-        strictness: if a.lenient { Strictness::Lenient } else { Strictness::Strict },
+        strictness: if a.lenient {
+            Strictness::Lenient
+        } else {
+            Strictness::Strict
+        },
     };
     let load_start = std::time::Instant::now();
     let loaded = load_scene(&a.scene, &params, &opts)?;
@@ -149,15 +153,26 @@ pub fn run(a: RenderArgs) -> Result<()> {
         let rate = p.samples_done as f64 / p.elapsed.as_secs_f64().max(1e-9) / 1e6;
         bar.set_prefix(format!("{rate:.2} Msamples/s"));
     };
-    let out = render(&loaded.scene, &loaded.camera, &loaded.film, integrator.as_ref(), &settings, &progress);
+    let out = render(
+        &loaded.scene,
+        &loaded.camera,
+        &loaded.film,
+        integrator.as_ref(),
+        &settings,
+        &progress,
+    );
     bar.finish_and_clear();
 
     let mut image = out.image;
     image.sanitize();
-    image.write_exr(&output).with_context(|| format!("writing {}", output.display()))?;
+    image
+        .write_exr(&output)
+        .with_context(|| format!("writing {}", output.display()))?;
     let png = if a.png {
         let p = output.with_extension("png");
-        image.write_png(&p, a.exposure).with_context(|| format!("writing {}", p.display()))?;
+        image
+            .write_png(&p, a.exposure)
+            .with_context(|| format!("writing {}", p.display()))?;
         Some(p)
     } else {
         None

@@ -10,8 +10,14 @@ fn tmpdir(name: &str) -> PathBuf {
 }
 
 fn run(args: &[&str]) -> (i32, String) {
-    let out = Command::new(env!("CARGO_BIN_EXE_focal")).args(args).output().unwrap();
-    (out.status.code().unwrap_or(-1), String::from_utf8_lossy(&out.stderr).into_owned())
+    let out = Command::new(env!("CARGO_BIN_EXE_focal"))
+        .args(args)
+        .output()
+        .unwrap();
+    (
+        out.status.code().unwrap_or(-1),
+        String::from_utf8_lossy(&out.stderr).into_owned(),
+    )
 }
 
 const HEADER: &str = r#"<scene version="3.0.0">
@@ -24,10 +30,19 @@ fn check_error(name: &str, body: &str, expect_line: u32, expect_words: &[&str]) 
     let d = tmpdir(name);
     let scene = d.join("scene.xml");
     std::fs::write(&scene, format!("{HEADER}{body}")).unwrap();
-    let (code, stderr) = run(&["render", scene.to_str().unwrap(), "-o", d.join("o.exr").to_str().unwrap(), "-q"]);
+    let (code, stderr) = run(&[
+        "render",
+        scene.to_str().unwrap(),
+        "-o",
+        d.join("o.exr").to_str().unwrap(),
+        "-q",
+    ]);
     assert_ne!(code, 0, "{name}: expected failure, stderr: {stderr}");
     assert!(!stderr.contains("panicked"), "{name}: panic: {stderr}");
-    assert!(stderr.contains(&format!("scene.xml:{expect_line}:")), "{name}: no file:line {expect_line} in: {stderr}");
+    assert!(
+        stderr.contains(&format!("scene.xml:{expect_line}:")),
+        "{name}: no file:line {expect_line} in: {stderr}"
+    );
     for w in expect_words {
         assert!(stderr.contains(w), "{name}: '{w}' missing in: {stderr}");
     }
@@ -35,7 +50,12 @@ fn check_error(name: &str, body: &str, expect_line: u32, expect_words: &[&str]) 
 
 #[test]
 fn malformed_xml() {
-    check_error("malformed", "    <shape type=\"sphere\">\n    </shapex>\n</scene>\n", 6, &[]);
+    check_error(
+        "malformed",
+        "    <shape type=\"sphere\">\n    </shapex>\n</scene>\n",
+        6,
+        &[],
+    );
 }
 
 #[test]
@@ -50,7 +70,12 @@ fn missing_mesh_file() {
 
 #[test]
 fn unknown_plugin() {
-    check_error("unknown-plugin", "    <shape type=\"teapot\"/>\n</scene>\n", 5, &["teapot"]);
+    check_error(
+        "unknown-plugin",
+        "    <shape type=\"teapot\"/>\n</scene>\n",
+        5,
+        &["teapot"],
+    );
 }
 
 #[test]
@@ -67,7 +92,10 @@ fn unknown_bsdf() {
 fn missing_scene_file() {
     let (code, stderr) = run(&["render", "/definitely/not/here.xml", "-q"]);
     assert_ne!(code, 0);
-    assert!(stderr.contains("/definitely/not/here.xml") && !stderr.contains("panicked"), "{stderr}");
+    assert!(
+        stderr.contains("/definitely/not/here.xml") && !stderr.contains("panicked"),
+        "{stderr}"
+    );
 }
 
 #[test]
@@ -82,11 +110,21 @@ fn render_writes_exr_png_and_sidecar() {
     )
     .unwrap();
     let out = d.join("out.exr");
-    let (code, stderr) =
-        run(&["render", scene.to_str().unwrap(), "-o", out.to_str().unwrap(), "--spp", "4", "--png", "-q", "--aovs"]);
+    let (code, stderr) = run(&[
+        "render",
+        scene.to_str().unwrap(),
+        "-o",
+        out.to_str().unwrap(),
+        "--spp",
+        "4",
+        "--png",
+        "-q",
+        "--aovs",
+    ]);
     assert_eq!(code, 0, "{stderr}");
     assert!(out.exists() && d.join("out.png").exists());
-    let json: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(d.join("out.json")).unwrap()).unwrap();
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(d.join("out.json")).unwrap()).unwrap();
     assert_eq!(json["spp"], 4);
     assert!(json["samples_per_s"].as_f64().unwrap() > 0.0);
     assert_eq!(json["mean_rgb"].as_array().unwrap().len(), 3);

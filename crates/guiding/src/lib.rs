@@ -8,4 +8,6 @@
 
 mod distribution;
 
-pub use distribution::{Aabb3, GuideSample, GuidingDistribution, TrainingSegment, UpdateContext, UpdateStats};
+pub use distribution::{
+    Aabb3, GuideSample, GuidingDistribution, TrainingSegment, UpdateContext, UpdateStats,
+};

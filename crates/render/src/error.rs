@@ -18,7 +18,11 @@ pub struct SourceLoc {
 impl SourceLoc {
     /// A location in `file` with unknown line.
     pub fn file_only(file: &Path) -> Self {
-        SourceLoc { file: Arc::new(file.to_path_buf()), line: 0, col: 0 }
+        SourceLoc {
+            file: Arc::new(file.to_path_buf()),
+            line: 0,
+            col: 0,
+        }
     }
 }
 
@@ -44,12 +48,18 @@ pub struct SceneError {
 impl SceneError {
     /// An error at a known location.
     pub fn at(loc: &SourceLoc, message: impl Into<String>) -> Self {
-        SceneError { loc: Some(loc.clone()), message: message.into() }
+        SceneError {
+            loc: Some(loc.clone()),
+            message: message.into(),
+        }
     }
 
     /// An error with no better location than the file.
     pub fn in_file(file: &Path, message: impl Into<String>) -> Self {
-        SceneError { loc: Some(SourceLoc::file_only(file)), message: message.into() }
+        SceneError {
+            loc: Some(SourceLoc::file_only(file)),
+            message: message.into(),
+        }
     }
 }
 

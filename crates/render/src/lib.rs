@@ -5,23 +5,23 @@
 //! estimates radiance along camera rays and [`render`] drives it over the film in parallel,
 //! deterministically for a fixed seed.
 
+pub mod accel;
 pub mod bsdf;
 pub mod camera;
 pub mod color;
 pub mod desc;
+pub mod emitter;
 pub mod error;
 pub mod film;
 pub mod frame;
+pub mod geometry;
+pub mod integrator;
+pub mod load;
 pub mod mesh;
 pub mod ray;
+pub mod render;
 pub mod sampler;
+pub mod scene;
 pub mod testing;
 pub mod texture;
 pub mod warp;
-pub mod accel;
-pub mod geometry;
-pub mod emitter;
-pub mod scene;
-pub mod integrator;
-pub mod render;
-pub mod load;

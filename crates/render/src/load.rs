@@ -7,7 +7,11 @@ use crate::scene::{build_scene, BuildOptions, IntegratorSpec, LoadedScene};
 use std::path::Path;
 
 /// Loads a Mitsuba XML scene; `params` are `-D name=value` overrides.
-pub fn load_scene(path: &Path, params: &[(String, String)], opts: &BuildOptions) -> SceneResult<LoadedScene> {
+pub fn load_scene(
+    path: &Path,
+    params: &[(String, String)],
+    opts: &BuildOptions,
+) -> SceneResult<LoadedScene> {
     let desc = parse_scene_file(path, params)?;
     build_scene(&desc, opts)
 }

@@ -17,7 +17,11 @@ impl Ray {
     /// A ray of unbounded extent.
     #[inline]
     pub fn new(o: Vec3, d: Vec3) -> Self {
-        Ray { o, d, t_max: f32::INFINITY }
+        Ray {
+            o,
+            d,
+            t_max: f32::INFINITY,
+        }
     }
 
     /// A ray limited to `t < t_max`.
@@ -53,8 +57,20 @@ pub fn offset_ray_origin(p: Vec3, ng: Vec3, dir: Vec3) -> Vec3 {
     };
     let pi = Vec3::new(p_i(p.x, of_i[0]), p_i(p.y, of_i[1]), p_i(p.z, of_i[2]));
     Vec3::new(
-        if p.x.abs() < ORIGIN { p.x + FLOAT_SCALE * n.x } else { pi.x },
-        if p.y.abs() < ORIGIN { p.y + FLOAT_SCALE * n.y } else { pi.y },
-        if p.z.abs() < ORIGIN { p.z + FLOAT_SCALE * n.z } else { pi.z },
+        if p.x.abs() < ORIGIN {
+            p.x + FLOAT_SCALE * n.x
+        } else {
+            pi.x
+        },
+        if p.y.abs() < ORIGIN {
+            p.y + FLOAT_SCALE * n.y
+        } else {
+            pi.y
+        },
+        if p.z.abs() < ORIGIN {
+            p.z + FLOAT_SCALE * n.z
+        } else {
+            pi.z
+        },
     )
 }

@@ -32,7 +32,10 @@ pub struct Pcg32 {
 impl Pcg32 {
     /// A generator for stream `stream` from seed `seed`.
     pub fn new(seed: u64, stream: u64) -> Self {
-        let mut rng = Pcg32 { state: 0, inc: (stream << 1) | 1 };
+        let mut rng = Pcg32 {
+            state: 0,
+            inc: (stream << 1) | 1,
+        };
         rng.next_u32();
         rng.state = rng.state.wrapping_add(seed);
         rng.next_u32();
@@ -82,10 +85,21 @@ impl Sampler {
     pub fn new(kind: SamplerKind, seed: u64, pixel: u64, sample_index: u32) -> Self {
         let pixel_key = mix64(seed ^ mix64(pixel.wrapping_add(0x51_7CC1_B727_220A)));
         let rng = match kind {
-            SamplerKind::Independent => Pcg32::new(mix64(pixel_key ^ sample_index as u64), pixel_key),
-            SamplerKind::Sobol => Pcg32::new(mix64(pixel_key.wrapping_add(sample_index as u64)), 0x2545F491),
+            SamplerKind::Independent => {
+                Pcg32::new(mix64(pixel_key ^ sample_index as u64), pixel_key)
+            }
+            SamplerKind::Sobol => Pcg32::new(
+                mix64(pixel_key.wrapping_add(sample_index as u64)),
+                0x2545F491,
+            ),
         };
-        Sampler { kind, rng, sample_index, scramble: (pixel_key >> 32) as u32, dim: 0 }
+        Sampler {
+            kind,
+            rng,
+            sample_index,
+            scramble: (pixel_key >> 32) as u32,
+            dim: 0,
+        }
     }
 
     /// A free-running independent stream (for training-data subsampling, tests and other non-pixel uses).

@@ -14,5 +14,8 @@ fn same_seed_same_image_for_any_thread_count() {
     assert!(one.rgb == two.rgb, "1 vs 2 threads differ");
     assert!(one.rgb == three.rgb, "1 vs 3 threads differ");
     let other_seed = render_loaded(&scene, &settings(6, 43, 2)).image;
-    assert!(one.rgb != other_seed.rgb, "a different seed must give a different image");
+    assert!(
+        one.rgb != other_seed.rgb,
+        "a different seed must give a different image"
+    );
 }

@@ -36,7 +36,10 @@ fn closed_sphere(max_depth: i32) -> String {
 fn closed_sphere_converges_to_one() {
     let m = mean_of(&closed_sphere(-1), 256);
     for c in m {
-        assert!((c - 1.0).abs() < 0.01, "closed furnace mean {c}, expected 1");
+        assert!(
+            (c - 1.0).abs() < 0.01,
+            "closed furnace mean {c}, expected 1"
+        );
     }
 }
 
@@ -47,7 +50,11 @@ fn max_depth_counts_segments_like_mitsuba() {
     for d in 0..=3 {
         let m = mean_of(&closed_sphere(d), 64);
         for c in m {
-            assert!((c - expected(d)).abs() < 0.004 + 0.01 * expected(d), "max_depth {d}: {c} vs {}", expected(d));
+            assert!(
+                (c - expected(d)).abs() < 0.004 + 0.01 * expected(d),
+                "max_depth {d}: {c} vs {}",
+                expected(d)
+            );
         }
     }
 }
@@ -67,12 +74,16 @@ fn white_sphere_under_constant_sky_is_invisible() {
     <emitter type="constant"><rgb name="radiance" value="1"/></emitter>
 </scene>"#;
     let s = load_str(xml, std::path::Path::new("."));
-    let out = render_loaded(&s, &settings(64, 3, 0));
-    for p in &out.image.rgb {
-        for c in p {
-            assert!((c - 1.0).abs() < 0.05, "pixel {c}");
-        }
-    }
+    let out = render_loaded(&s, &settings(256, 3, 0));
+    let worst = out
+        .image
+        .rgb
+        .iter()
+        .flatten()
+        .map(|c| (c - 1.0).abs())
+        .fold(0.0f32, f32::max);
     let m = out.image.mean_rgb();
-    assert!((m[0] - 1.0).abs() < 0.003, "{m:?}");
+    eprintln!("mean {m:?}, worst pixel deviation {worst}");
+    assert!(m.iter().all(|c| (c - 1.0).abs() < 0.003), "{m:?}");
+    assert!(worst < 0.06, "worst pixel deviates by {worst}");
 }

@@ -17,25 +17,48 @@ fn check_mean(name: &str, json: &str, params: &[(&str, &str)], spp: u32, passes:
             "{name} channel {c}: focal {:.6} ± {:.6}, mitsuba {:.6} ± {:.6}, |diff| {:.6}, tolerance {:.6}",
             ours[c], ours_se[c], theirs[c], theirs_se[c], diff, tol
         );
-        assert!(diff <= tol, "{name} channel {c}: focal {} vs mitsuba {} (tolerance {tol})", ours[c], theirs[c]);
+        assert!(
+            diff <= tol,
+            "{name} channel {c}: focal {} vs mitsuba {} (tolerance {tol})",
+            ours[c],
+            theirs[c]
+        );
     }
 }
 
 #[test]
 fn cornell_box_mean_matches_mitsuba() {
-    check_mean("cbox", "cbox_llvm_256px_1024spp.json", &[("res", "256")], 16, 6);
+    check_mean(
+        "cbox",
+        "cbox_llvm_256px_1024spp.json",
+        &[("res", "256")],
+        16,
+        6,
+    );
 }
 
 #[test]
 fn caustic_mean_matches_mitsuba() {
-    check_mean("caustic", "caustic_llvm_256px_4096spp.json", &[("res", "256")], 16, 6);
+    check_mean(
+        "caustic",
+        "caustic_llvm_256px_4096spp.json",
+        &[("res", "256")],
+        16,
+        6,
+    );
 }
 
 #[test]
 fn obscura_mean_matches_mitsuba() {
     // Plain path tracing is very noisy here (that is what focal guiding is for): the test is correspondingly
     // loose, but still checks the mean against the reference within the combined standard error.
-    check_mean("obscura", "obscura_llvm_128px_16384spp.json", &[("res", "128")], 64, 6);
+    check_mean(
+        "obscura",
+        "obscura_llvm_128px_16384spp.json",
+        &[("res", "128")],
+        64,
+        6,
+    );
 }
 
 /// relMSE of `a` against `reference` with the usual ε = 1e-2 in the denominator.
@@ -59,7 +82,9 @@ fn cornell_box_per_pixel_error_is_noise() {
     let scene = load(&reference_scene("cbox"), &[("res", "256")]);
     let a = render_loaded(&scene, &settings(n, 11, 0)).image;
     let b = render_loaded(&scene, &settings(n, 12, 0)).image;
-    let reference = Image::read_exr(&shared_dir().join("references/mitsuba3/cbox_llvm_256px_1024spp.exr")).unwrap();
+    let reference =
+        Image::read_exr(&shared_dir().join("references/mitsuba3/cbox_llvm_256px_1024spp.exr"))
+            .unwrap();
     assert_eq!((reference.width, reference.height), (a.width, a.height));
     let mut m = a.clone();
     m.add_scaled(&b, 1.0);
@@ -75,6 +100,12 @@ fn cornell_box_per_pixel_error_is_noise() {
     let expected = noise * (1.0 + 2.0 * n as f64 / 1024.0);
     let measured = rel_mse(&m, &reference);
     eprintln!("relMSE(focal {}spp, mitsuba 1024spp) = {measured:.6e}, noise-only expectation {expected:.6e}", 2 * n);
-    assert!(measured < 1.15 * expected, "relMSE {measured} exceeds the noise floor {expected}");
-    assert!(measured > 0.85 * expected, "relMSE {measured} is suspiciously below the noise floor {expected}");
+    assert!(
+        measured < 1.15 * expected,
+        "relMSE {measured} exceeds the noise floor {expected}"
+    );
+    assert!(
+        measured > 0.85 * expected,
+        "relMSE {measured} is suspiciously below the noise floor {expected}"
+    );
 }

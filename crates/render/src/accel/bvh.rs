@@ -6,15 +6,27 @@ use crate::ray::Ray;
 use glam::{Vec2, Vec3, Vec3A};
 use obvhs::aabb::Aabb as BAabb;
 use obvhs::cwbvh::{builder::build_cwbvh, CwBvh};
-use obvhs::{BvhBuildParams, Boundable};
+use obvhs::{Boundable, BvhBuildParams};
 use std::time::Duration;
 
 /// A primitive in BVH order, with what its intersection test needs inline.
 #[derive(Clone, Copy, Debug)]
 enum Prim {
-    Triangle { v0: Vec3, e1: Vec3, e2: Vec3, shape: u32, tri: u32 },
-    Sphere { sphere: Sphere, shape: u32 },
-    Disk { disk: Disk, shape: u32 },
+    Triangle {
+        v0: Vec3,
+        e1: Vec3,
+        e2: Vec3,
+        shape: u32,
+        tri: u32,
+    },
+    Sphere {
+        sphere: Sphere,
+        shape: u32,
+    },
+    Disk {
+        disk: Disk,
+        shape: u32,
+    },
 }
 
 struct Bounded(BAabb);
@@ -41,7 +53,13 @@ impl BvhAccel {
                 ShapeGeometry::Mesh(m) => {
                     for i in 0..m.indices.len() {
                         let [a, b, c] = m.vertices(i);
-                        prims.push(Prim::Triangle { v0: a, e1: b - a, e2: c - a, shape, tri: i as u32 });
+                        prims.push(Prim::Triangle {
+                            v0: a,
+                            e1: b - a,
+                            e2: c - a,
+                            shape,
+                            tri: i as u32,
+                        });
                     }
                 }
                 ShapeGeometry::Sphere(s) => prims.push(Prim::Sphere { sphere: *s, shape }),
@@ -71,13 +89,20 @@ impl BvhAccel {
         let bvh = if bounds.is_empty() {
             CwBvh::default()
         } else {
-            build_cwbvh(&bounds, BvhBuildParams::medium_build(), &mut Duration::default())
+            build_cwbvh(
+                &bounds,
+                BvhBuildParams::medium_build(),
+                &mut Duration::default(),
+            )
         };
         // Store primitives in BVH leaf order so that traversal reads them sequentially.
         let prims = if bounds.is_empty() {
             prims
         } else {
-            bvh.primitive_indices.iter().map(|&i| prims[i as usize]).collect()
+            bvh.primitive_indices
+                .iter()
+                .map(|&i| prims[i as usize])
+                .collect()
         };
         BvhAccel { bvh, prims }
     }
@@ -110,7 +135,9 @@ impl BvhAccel {
                     None
                 }
             }
-            Prim::Sphere { sphere, .. } => sphere.intersect(o, d, 0.0, t_max).map(|t| (t, Vec2::ZERO)),
+            Prim::Sphere { sphere, .. } => {
+                sphere.intersect(o, d, 0.0, t_max).map(|t| (t, Vec2::ZERO))
+            }
             Prim::Disk { disk, .. } => disk.intersect(o, d, 0.0, t_max).map(|t| (t, Vec2::ZERO)),
         }
     }
@@ -128,15 +155,19 @@ impl Accel for BvhAccel {
         let mut hit = obvhs::ray::RayHit::none();
         let mut best: Option<(usize, Vec2)> = None;
         let (o, d) = (ray.o, ray.d);
-        let found = self.bvh.ray_traverse(Self::to_bvh_ray(ray), &mut hit, |r, id| {
-            match Self::intersect_prim(&self.prims[id], o, d, r.tmax) {
-                Some((t, b)) => {
-                    best = Some((id, b));
-                    t
-                }
-                None => f32::INFINITY,
-            }
-        });
+        let found = self
+            .bvh
+            .ray_traverse(
+                Self::to_bvh_ray(ray),
+                &mut hit,
+                |r, id| match Self::intersect_prim(&self.prims[id], o, d, r.tmax) {
+                    Some((t, b)) => {
+                        best = Some((id, b));
+                        t
+                    }
+                    None => f32::INFINITY,
+                },
+            );
         if !found {
             return None;
         }
@@ -146,7 +177,12 @@ impl Accel for BvhAccel {
             Prim::Triangle { shape, tri, .. } => (shape, tri),
             Prim::Sphere { shape, .. } | Prim::Disk { shape, .. } => (shape, 0),
         };
-        Some(PrimHit { t: hit.t, shape, prim, bary })
+        Some(PrimHit {
+            t: hit.t,
+            shape,
+            prim,
+            bary,
+        })
     }
 
     fn occluded(&self, ray: &Ray) -> bool {

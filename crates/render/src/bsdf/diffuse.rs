@@ -29,7 +29,13 @@ impl Diffuse {
         square_to_cosine_hemisphere_pdf(wo)
     }
 
-    pub(super) fn sample(&self, ctx: &BsdfContext, wi: Vec3, _u1: f32, u2: Vec2) -> Option<BsdfSample> {
+    pub(super) fn sample(
+        &self,
+        ctx: &BsdfContext,
+        wi: Vec3,
+        _u1: f32,
+        u2: Vec2,
+    ) -> Option<BsdfSample> {
         if wi.z <= 0.0 {
             return None;
         }
@@ -38,6 +44,12 @@ impl Diffuse {
         if pdf <= 0.0 {
             return None;
         }
-        Some(BsdfSample { wo, pdf, weight: self.reflectance.eval(ctx.uv), eta: 1.0, delta: false })
+        Some(BsdfSample {
+            wo,
+            pdf,
+            weight: self.reflectance.eval(ctx.uv),
+            eta: 1.0,
+            delta: false,
+        })
     }
 }

@@ -294,18 +294,26 @@ impl ObjectDesc {
         &'a self,
         class: &'a ObjectClass,
     ) -> impl Iterator<Item = &'a ChildDesc> + 'a {
-        self.children.iter().filter(move |c| &c.object.class == class)
+        self.children
+            .iter()
+            .filter(move |c| &c.object.class == class)
     }
 
     /// The nested plugin bound to property `name` (e.g. `<texture name="reflectance" ...>`).
     pub fn named_child(&self, name: &str) -> Option<&ChildDesc> {
-        self.children.iter().find(|c| c.name.as_deref() == Some(name))
+        self.children
+            .iter()
+            .find(|c| c.name.as_deref() == Some(name))
     }
 
     /// Resolves a `filename` property relative to the directory of the XML file that wrote it.
     pub fn resolve_path(&self, name: &str) -> SceneResult<Option<(PathBuf, SourceLoc)>> {
-        let Some(p) = self.prop(name) else { return Ok(None) };
-        let PropValue::String(s) = &p.value else { return Err(self.type_error(p, "string")) };
+        let Some(p) = self.prop(name) else {
+            return Ok(None);
+        };
+        let PropValue::String(s) = &p.value else {
+            return Err(self.type_error(p, "string"));
+        };
         let rel = Path::new(s);
         let full = if rel.is_absolute() {
             rel.to_path_buf()

@@ -69,7 +69,10 @@ impl Emitter {
 
     /// True for delta position/direction lights.
     pub fn is_delta(&self) -> bool {
-        matches!(self, Emitter::Point { .. } | Emitter::Spot(_) | Emitter::Directional { .. })
+        matches!(
+            self,
+            Emitter::Point { .. } | Emitter::Spot(_) | Emitter::Directional { .. }
+        )
     }
 
     /// Samples a direction from reference point `x` towards this light. `shapes` gives area lights their
@@ -111,16 +114,33 @@ impl Emitter {
                 if n.dot(wi) >= 0.0 || !(pdf > 0.0) || !pdf.is_finite() {
                     return None;
                 }
-                Some(EmitterSample { wi, dist, weight: *radiance / pdf, pdf, delta: false, n })
+                Some(EmitterSample {
+                    wi,
+                    dist,
+                    weight: *radiance / pdf,
+                    pdf,
+                    delta: false,
+                    n,
+                })
             }
-            Emitter::Point { position, intensity } => {
+            Emitter::Point {
+                position,
+                intensity,
+            } => {
                 let v = *position - x;
                 let d2 = v.length_squared();
                 if !(d2 > 0.0) {
                     return None;
                 }
                 let dist = d2.sqrt();
-                Some(EmitterSample { wi: v / dist, dist, weight: *intensity / d2, pdf: 0.0, delta: true, n: Vec3::ZERO })
+                Some(EmitterSample {
+                    wi: v / dist,
+                    dist,
+                    weight: *intensity / d2,
+                    pdf: 0.0,
+                    delta: true,
+                    n: Vec3::ZERO,
+                })
             }
             Emitter::Spot(s) => s.sample_direction(x),
             Emitter::Constant { radiance } => {
@@ -134,7 +154,10 @@ impl Emitter {
                     n: Vec3::ZERO,
                 })
             }
-            Emitter::Directional { direction, irradiance } => Some(EmitterSample {
+            Emitter::Directional {
+                direction,
+                irradiance,
+            } => Some(EmitterSample {
                 wi: -*direction,
                 dist: f32::INFINITY,
                 weight: *irradiance,
@@ -190,11 +213,19 @@ impl Emitter {
     /// Total emitted power estimate (used for reporting).
     pub fn describe(&self) -> String {
         match self {
-            Emitter::Area { shape, radiance } => format!("area(shape {shape}, radiance {radiance})"),
-            Emitter::Point { position, intensity } => format!("point(at {position}, intensity {intensity})"),
+            Emitter::Area { shape, radiance } => {
+                format!("area(shape {shape}, radiance {radiance})")
+            }
+            Emitter::Point {
+                position,
+                intensity,
+            } => format!("point(at {position}, intensity {intensity})"),
             Emitter::Spot(s) => format!("spot(at {}, intensity {})", s.position(), s.intensity),
             Emitter::Constant { radiance } => format!("constant(radiance {radiance})"),
-            Emitter::Directional { direction, irradiance } => {
+            Emitter::Directional {
+                direction,
+                irradiance,
+            } => {
                 format!("directional(direction {direction}, irradiance {irradiance})")
             }
         }

@@ -62,6 +62,13 @@ impl SpotLight {
         if f <= 0.0 {
             return None;
         }
-        Some(EmitterSample { wi, dist, weight: self.intensity * (f / d2), pdf: 0.0, delta: true, n: Vec3::ZERO })
+        Some(EmitterSample {
+            wi,
+            dist,
+            weight: self.intensity * (f / d2),
+            pdf: 0.0,
+            delta: true,
+            n: Vec3::ZERO,
+        })
     }
 }

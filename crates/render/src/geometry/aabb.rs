@@ -13,7 +13,10 @@ pub struct Aabb {
 
 impl Aabb {
     /// The empty box (identity for [`Aabb::union`]).
-    pub const EMPTY: Aabb = Aabb { min: Vec3::splat(f32::INFINITY), max: Vec3::splat(f32::NEG_INFINITY) };
+    pub const EMPTY: Aabb = Aabb {
+        min: Vec3::splat(f32::INFINITY),
+        max: Vec3::splat(f32::NEG_INFINITY),
+    };
 
     /// Grows the box to contain `p`.
     pub fn expand(&mut self, p: Vec3) {
@@ -23,7 +26,10 @@ impl Aabb {
 
     /// The smallest box containing both.
     pub fn union(&self, o: &Aabb) -> Aabb {
-        Aabb { min: self.min.min(o.min), max: self.max.max(o.max) }
+        Aabb {
+            min: self.min.min(o.min),
+            max: self.max.max(o.max),
+        }
     }
 
     /// True if the box contains no point.

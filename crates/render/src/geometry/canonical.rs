@@ -11,7 +11,12 @@ pub fn rectangle_mesh() -> (Vec<Vec3>, Vec<Vec3>, Vec<Vec2>, Vec<[u32; 3]>) {
         Vec3::new(-1.0, 1.0, 0.0),
     ];
     let n = vec![Vec3::Z; 4];
-    let uv = vec![Vec2::new(0.0, 0.0), Vec2::new(1.0, 0.0), Vec2::new(1.0, 1.0), Vec2::new(0.0, 1.0)];
+    let uv = vec![
+        Vec2::new(0.0, 0.0),
+        Vec2::new(1.0, 0.0),
+        Vec2::new(1.0, 1.0),
+        Vec2::new(0.0, 1.0),
+    ];
     (p, n, uv, vec![[0, 1, 2], [0, 2, 3]])
 }
 
@@ -28,14 +33,24 @@ pub fn cube_mesh() -> (Vec<Vec3>, Vec<Vec3>, Vec<Vec2>, Vec<[u32; 3]>) {
             // Two tangent axes ordered so that (t1 × t2) = normal: counter-clockwise seen from outside.
             let (a1, a2) = ((axis + 1) % 3, (axis + 2) % 3);
             let base = p.len() as u32;
-            for (k, (s1, s2)) in [(-1.0f32, -1.0f32), (1.0, -1.0), (1.0, 1.0), (-1.0, 1.0)].iter().enumerate() {
+            for (k, (s1, s2)) in [(-1.0f32, -1.0f32), (1.0, -1.0), (1.0, 1.0), (-1.0, 1.0)]
+                .iter()
+                .enumerate()
+            {
                 let mut v = Vec3::ZERO;
                 v[axis] = sign;
                 v[a1] = *s1;
                 v[a2] = *s2 * sign;
                 p.push(v);
                 n.push(normal);
-                uv.push([Vec2::new(0.0, 0.0), Vec2::new(1.0, 0.0), Vec2::new(1.0, 1.0), Vec2::new(0.0, 1.0)][k]);
+                uv.push(
+                    [
+                        Vec2::new(0.0, 0.0),
+                        Vec2::new(1.0, 0.0),
+                        Vec2::new(1.0, 1.0),
+                        Vec2::new(0.0, 1.0),
+                    ][k],
+                );
             }
             idx.push([base, base + 1, base + 2]);
             idx.push([base, base + 2, base + 3]);
@@ -56,7 +71,11 @@ mod tests {
         for t in idx {
             let [a, b, c] = t.map(|i| p[i as usize]);
             let face = (b - a).cross(c - a).normalize();
-            assert!((face - n[t[0] as usize]).length() < 1e-6, "{face} vs {}", n[t[0] as usize]);
+            assert!(
+                (face - n[t[0] as usize]).length() < 1e-6,
+                "{face} vs {}",
+                n[t[0] as usize]
+            );
             assert!(face.dot((a + b + c) / 3.0) > 0.0);
         }
     }

@@ -88,6 +88,10 @@ impl Disk {
     pub fn sample_position(&self, u: Vec2) -> PositionSample {
         let q = square_to_uniform_disk_concentric(u);
         let p = self.to_world.transform_point3(Vec3::new(q.x, q.y, 0.0));
-        PositionSample { p, n: self.normal, pdf_area: 1.0 / self.area }
+        PositionSample {
+            p,
+            n: self.normal,
+            pdf_area: 1.0 / self.area,
+        }
     }
 }

@@ -86,14 +86,21 @@ impl Sphere {
 
     /// Bounding box.
     pub fn bounds(&self) -> Aabb {
-        Aabb { min: self.center - Vec3::splat(self.radius), max: self.center + Vec3::splat(self.radius) }
+        Aabb {
+            min: self.center - Vec3::splat(self.radius),
+            max: self.center + Vec3::splat(self.radius),
+        }
     }
 
     /// Samples a point uniformly by area.
     pub fn sample_position(&self, u: Vec2) -> PositionSample {
         let d = square_to_uniform_sphere(u);
         let p = self.center + d * self.radius;
-        PositionSample { p, n: if self.flip_normals { -d } else { d }, pdf_area: 1.0 / self.area() }
+        PositionSample {
+            p,
+            n: if self.flip_normals { -d } else { d },
+            pdf_area: 1.0 / self.area(),
+        }
     }
 
     /// Samples a direction from `x` towards the sphere. Outside the sphere the cone of visible directions is

@@ -37,7 +37,14 @@ impl TriangleMesh {
                 (b - a).cross(c - a).length_squared() > 0.0
             })
             .collect();
-        let mut mesh = TriangleMesh { positions, normals, uvs, indices, flip_normals, area_cdf: Vec::new() };
+        let mut mesh = TriangleMesh {
+            positions,
+            normals,
+            uvs,
+            indices,
+            flip_normals,
+            area_cdf: Vec::new(),
+        };
         let mut acc = 0.0f64;
         mesh.area_cdf = (0..mesh.indices.len())
             .map(|i| {
@@ -95,7 +102,9 @@ impl TriangleMesh {
         match &self.normals {
             Some(ns) => {
                 let [i0, i1, i2] = self.indices[i];
-                let n = ns[i0 as usize] * (1.0 - b.x - b.y) + ns[i1 as usize] * b.x + ns[i2 as usize] * b.y;
+                let n = ns[i0 as usize] * (1.0 - b.x - b.y)
+                    + ns[i1 as usize] * b.x
+                    + ns[i2 as usize] * b.y;
                 let n = n.normalize_or_zero();
                 if n == Vec3::ZERO {
                     return self.face_normal(i);
@@ -116,7 +125,9 @@ impl TriangleMesh {
         match &self.uvs {
             Some(uvs) => {
                 let [i0, i1, i2] = self.indices[i];
-                uvs[i0 as usize] * (1.0 - b.x - b.y) + uvs[i1 as usize] * b.x + uvs[i2 as usize] * b.y
+                uvs[i0 as usize] * (1.0 - b.x - b.y)
+                    + uvs[i1 as usize] * b.x
+                    + uvs[i2 as usize] * b.y
             }
             None => b,
         }
@@ -126,10 +137,17 @@ impl TriangleMesh {
     pub fn sample_position(&self, u1: f32, u2: Vec2) -> PositionSample {
         let total = self.area();
         let target = u1 * total;
-        let i = self.area_cdf.partition_point(|&c| c <= target).min(self.indices.len() - 1);
+        let i = self
+            .area_cdf
+            .partition_point(|&c| c <= target)
+            .min(self.indices.len() - 1);
         let b = square_to_uniform_triangle(u2);
         let [a, bb, c] = self.vertices(i);
         let p = a * (1.0 - b.x - b.y) + bb * b.x + c * b.y;
-        PositionSample { p, n: self.shading_normal(i, b), pdf_area: 1.0 / total }
+        PositionSample {
+            p,
+            n: self.shading_normal(i, b),
+            pdf_area: 1.0 / total,
+        }
     }
 }

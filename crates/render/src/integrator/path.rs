@@ -23,7 +23,12 @@ pub struct PathSettings {
 
 impl Default for PathSettings {
     fn default() -> Self {
-        PathSettings { max_depth: u32::MAX, rr_depth: 5, russian_roulette: true, hide_emitters: false }
+        PathSettings {
+            max_depth: u32::MAX,
+            rr_depth: 5,
+            russian_roulette: true,
+            hide_emitters: false,
+        }
     }
 }
 
@@ -35,8 +40,17 @@ pub struct PathIntegrator {
 }
 
 impl Integrator for PathIntegrator {
-    fn li(&self, scene: &Scene, mut ray: Ray, sampler: &mut Sampler, aovs: &mut FirstHitAovs) -> Rgb {
+    fn li(
+        &self,
+        scene: &Scene,
+        mut ray: Ray,
+        sampler: &mut Sampler,
+        aovs: &mut FirstHitAovs,
+    ) -> Rgb {
         let s = &self.settings;
+        if s.max_depth == 0 {
+            return Rgb::ZERO;
+        }
         let mut result = Rgb::ZERO;
         let mut throughput = Rgb::ONE;
         let mut eta = 1.0f32;
@@ -59,14 +73,18 @@ impl Integrator for PathIntegrator {
                             let mis = if prev_bsdf_delta {
                                 1.0
                             } else {
-                                power_heuristic(prev_bsdf_pdf, scene.pdf_emitter_direction_area(prev_p, si))
+                                power_heuristic(
+                                    prev_bsdf_pdf,
+                                    scene.pdf_emitter_direction_area(prev_p, si),
+                                )
                             };
                             result += throughput * le * mis;
                         }
                     }
                     if depth == 0 {
                         let ctx = BsdfContext { uv: si.uv };
-                        aovs.albedo = scene.bsdfs[scene.shapes[si.shape as usize].bsdf as usize].albedo(&ctx);
+                        aovs.albedo =
+                            scene.bsdfs[scene.shapes[si.shape as usize].bsdf as usize].albedo(&ctx);
                         aovs.normal = si.sh_frame.n;
                         aovs.depth = si.t;
                     }
@@ -78,7 +96,10 @@ impl Integrator for PathIntegrator {
                             let mis = if prev_bsdf_delta {
                                 1.0
                             } else {
-                                power_heuristic(prev_bsdf_pdf, scene.pdf_emitter_direction_env(ray.d))
+                                power_heuristic(
+                                    prev_bsdf_pdf,
+                                    scene.pdf_emitter_direction_env(ray.d),
+                                )
                             };
                             result += throughput * le * mis;
                         }
@@ -105,9 +126,17 @@ impl Integrator for PathIntegrator {
                     let f = bsdf.eval(&ctx, wi, wo);
                     if f != Rgb::ZERO {
                         let o = offset_ray_origin(si.p, si.ng, es.wi);
-                        let t_max = if es.dist.is_finite() { (es.dist * (1.0 - 1e-4)).max(0.0) } else { f32::INFINITY };
+                        let t_max = if es.dist.is_finite() {
+                            (es.dist * (1.0 - 1e-4)).max(0.0)
+                        } else {
+                            f32::INFINITY
+                        };
                         if !scene.occluded(&Ray::segment(o, es.wi, t_max)) {
-                            let mis = if es.delta { 1.0 } else { power_heuristic(es.pdf, bsdf.pdf(&ctx, wi, wo)) };
+                            let mis = if es.delta {
+                                1.0
+                            } else {
+                                power_heuristic(es.pdf, bsdf.pdf(&ctx, wi, wo))
+                            };
                             result += throughput * f * es.weight * mis;
                         }
                     }
@@ -117,7 +146,9 @@ impl Integrator for PathIntegrator {
             // BSDF sampling.
             let u1 = sampler.next_1d();
             let u2 = sampler.next_2d();
-            let Some(bs) = bsdf.sample(&ctx, wi, u1, u2) else { break };
+            let Some(bs) = bsdf.sample(&ctx, wi, u1, u2) else {
+                break;
+            };
             let wo_world = si.to_world(bs.wo);
             throughput *= bs.weight;
             eta *= bs.eta;

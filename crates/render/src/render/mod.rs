@@ -114,7 +114,11 @@ fn render_tile(
                 let ray = camera.generate_ray(film_pos, aperture);
                 let mut aovs = FirstHitAovs::default();
                 let l = integrator.li(scene, ray, &mut sampler, &mut aovs);
-                let aov = AovSample { albedo: aovs.albedo, normal: aovs.normal, depth: aovs.depth };
+                let aov = AovSample {
+                    albedo: aovs.albedo,
+                    normal: aovs.normal,
+                    depth: aovs.depth,
+                };
                 block.put(film_pos, l, settings.aovs.then_some(&aov));
             }
         }
@@ -131,8 +135,15 @@ pub fn render(
     settings: &RenderSettings,
     progress: &(dyn Fn(Progress) + Sync),
 ) -> RenderOutput {
-    let threads = if settings.threads == 0 { num_cpus() } else { settings.threads };
-    let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().expect("thread pool");
+    let threads = if settings.threads == 0 {
+        num_cpus()
+    } else {
+        settings.threads
+    };
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()
+        .expect("thread pool");
     let mut film = Film::new(spec.clone(), settings.aovs);
     let tiles = tiles(spec);
     let pixels = spec.crop_size.x as u64 * spec.crop_size.y as u64;
@@ -152,8 +163,13 @@ pub fn render(
             tiles
                 .par_iter()
                 .map(|&tile| {
-                    let b = render_tile(scene, camera, integrator, &film, settings, tile, first, count);
-                    let n = done.fetch_add(tile.1.x as u64 * tile.1.y as u64 * count as u64, Ordering::Relaxed);
+                    let b = render_tile(
+                        scene, camera, integrator, &film, settings, tile, first, count,
+                    );
+                    let n = done.fetch_add(
+                        tile.1.x as u64 * tile.1.y as u64 * count as u64,
+                        Ordering::Relaxed,
+                    );
                     progress(Progress {
                         samples_done: n + tile.1.x as u64 * tile.1.y as u64 * count as u64,
                         samples_total,
@@ -178,7 +194,10 @@ pub fn render(
             let per_spp = pass_time.as_secs_f64() / count as f64;
             let remaining = (limit - elapsed).as_secs_f64();
             let fit = ((remaining / per_spp.max(1e-9)) as u32).max(1);
-            pass_spp = (pass_spp * 2).min(fit).min(((remaining / 8.0) / per_spp.max(1e-9)).max(1.0) as u32).max(1);
+            pass_spp = (pass_spp * 2)
+                .min(fit)
+                .min(((remaining / 8.0) / per_spp.max(1e-9)).max(1.0) as u32)
+                .max(1);
             if per_spp > remaining {
                 break;
             }
@@ -201,5 +220,7 @@ pub fn render(
 
 /// Number of logical cores.
 pub fn num_cpus() -> usize {
-    std::thread::available_parallelism().map(|n| n.get()).unwrap_or(1)
+    std::thread::available_parallelism()
+        .map(|n| n.get())
+        .unwrap_or(1)
 }

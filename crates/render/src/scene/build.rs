@@ -106,7 +106,10 @@ pub fn build_scene(desc: &SceneDesc, opts: &BuildOptions) -> SceneResult<LoadedS
                 if sensor.is_none() {
                     sensor = Some(o);
                 } else {
-                    b.warnings.push(format!("{}: extra sensor ignored (the first one is used)", o.loc));
+                    b.warnings.push(format!(
+                        "{}: extra sensor ignored (the first one is used)",
+                        o.loc
+                    ));
                 }
             }
             ObjectClass::Integrator => integrator = Some(o),
@@ -122,14 +125,31 @@ pub fn build_scene(desc: &SceneDesc, opts: &BuildOptions) -> SceneResult<LoadedS
             other => b.unknown(o, &format!("top-level <{}> element", other.tag()))?,
         }
     }
-    let sensor = sensor.ok_or_else(|| SceneError::in_file(&desc.path, "the scene has no <sensor>"))?;
-    let film_desc = sensor.children_of(&ObjectClass::Film).next().map(|c| c.object.as_ref());
+    let sensor =
+        sensor.ok_or_else(|| SceneError::in_file(&desc.path, "the scene has no <sensor>"))?;
+    let film_desc = sensor
+        .children_of(&ObjectClass::Film)
+        .next()
+        .map(|c| c.object.as_ref());
     let film = film_from_desc(film_desc)?;
     let camera = camera_from_desc(sensor, glam::UVec2::new(film.width, film.height))?;
-    let sampler = sampler_from_desc(sensor.children_of(&ObjectClass::Sampler).next().map(|c| c.object.as_ref()))?;
+    let sampler = sampler_from_desc(
+        sensor
+            .children_of(&ObjectClass::Sampler)
+            .next()
+            .map(|c| c.object.as_ref()),
+    )?;
     let integrator = b.integrator_from_desc(integrator, &desc.path)?;
 
-    let Builder { geometries, shapes, bsdfs, emitters, emitter_weights, warnings, .. } = b;
+    let Builder {
+        geometries,
+        shapes,
+        bsdfs,
+        emitters,
+        emitter_weights,
+        warnings,
+        ..
+    } = b;
     let scene = Scene::new(
         geometries,
         shapes,
@@ -139,23 +159,37 @@ pub fn build_scene(desc: &SceneDesc, opts: &BuildOptions) -> SceneResult<LoadedS
         &[camera.position()],
         |g| Box::new(BvhAccel::build(g)) as Box<dyn Accel>,
     );
-    Ok(LoadedScene { scene, camera, film, sampler, integrator, warnings })
+    Ok(LoadedScene {
+        scene,
+        camera,
+        film,
+        sampler,
+        integrator,
+        warnings,
+    })
 }
 
 fn sampler_from_desc(s: Option<&ObjectDesc>) -> SceneResult<SamplerSpec> {
-    let Some(s) = s else { return Ok(SamplerSpec { kind: SamplerKind::Independent, spp: 4 }) };
+    let Some(s) = s else {
+        return Ok(SamplerSpec {
+            kind: SamplerKind::Independent,
+            spp: 4,
+        });
+    };
     let kind = match s.plugin.as_str() {
         "independent" => SamplerKind::Independent,
-        "stratified" | "multijitter" | "orthogonal" | "ldsampler" | "sobol" | "halton" | "hammersley" => {
-            SamplerKind::Sobol
-        }
+        "stratified" | "multijitter" | "orthogonal" | "ldsampler" | "sobol" | "halton"
+        | "hammersley" => SamplerKind::Sobol,
         other => return Err(s.error(format!("unknown sampler plugin '{other}'"))),
     };
     let spp = s.int_or("sample_count", 4)?;
     if spp < 1 {
         return Err(s.error(format!("sample_count must be at least 1, got {spp}")));
     }
-    Ok(SamplerSpec { kind, spp: spp.min(u32::MAX as i64) as u32 })
+    Ok(SamplerSpec {
+        kind,
+        spp: spp.min(u32::MAX as i64) as u32,
+    })
 }
 
 impl Builder<'_> {
@@ -187,7 +221,11 @@ impl Builder<'_> {
             s.max_depth = match md {
                 -1 => u32::MAX,
                 d if d >= 0 => d.min(u32::MAX as i64) as u32,
-                d => return Err(i.error(format!("max_depth must be -1 (unlimited) or >= 0, got {d}"))),
+                d => {
+                    return Err(
+                        i.error(format!("max_depth must be -1 (unlimited) or >= 0, got {d}"))
+                    )
+                }
             };
             let rr = i.int_or("rr_depth", 5)?;
             if rr <= 0 {
@@ -198,7 +236,12 @@ impl Builder<'_> {
             Ok(s)
         };
         // Settings are read from the scene's element when it is a path-family integrator.
-        let source = i.filter(|i| matches!(i.plugin.as_str(), "path" | "volpath" | "direct" | "guided_path"));
+        let source = i.filter(|i| {
+            matches!(
+                i.plugin.as_str(),
+                "path" | "volpath" | "direct" | "guided_path"
+            )
+        });
         match name.as_str() {
             "path" | "volpath" => Ok(IntegratorSpec::Path(read(source, -1)?)),
             "direct" => {
@@ -232,9 +275,14 @@ impl Builder<'_> {
         }
         let bsdf = match bsdf_from_desc(o) {
             Ok(b) => b,
-            Err(e) if self.opts.strictness == Strictness::Lenient && e.message.contains("unknown BSDF plugin") => {
+            Err(e)
+                if self.opts.strictness == Strictness::Lenient
+                    && e.message.contains("unknown BSDF plugin") =>
+            {
                 self.warnings.push(format!("{e} (using grey diffuse 0.5)"));
-                Bsdf::Diffuse(Diffuse { reflectance: Texture::constant(0.5) })
+                Bsdf::Diffuse(Diffuse {
+                    reflectance: Texture::constant(0.5),
+                })
             }
             Err(e) => return Err(e),
         };
@@ -267,8 +315,17 @@ impl Builder<'_> {
                 ShapeGeometry::Mesh(mesh_from_data(data, flip))
             }
             "rectangle" | "cube" => {
-                let (p, n, uv, idx) = if o.plugin == "rectangle" { rectangle_mesh() } else { cube_mesh() };
-                let mut data = MeshData { positions: p, normals: Some(n), uvs: Some(uv), indices: idx };
+                let (p, n, uv, idx) = if o.plugin == "rectangle" {
+                    rectangle_mesh()
+                } else {
+                    cube_mesh()
+                };
+                let mut data = MeshData {
+                    positions: p,
+                    normals: Some(n),
+                    uvs: Some(uv),
+                    indices: idx,
+                };
                 data.transform(&to_world);
                 ShapeGeometry::Mesh(mesh_from_data(data, flip))
             }
@@ -298,20 +355,31 @@ impl Builder<'_> {
         };
         if let ShapeGeometry::Mesh(m) = &geometry {
             if m.indices.is_empty() {
-                self.warnings.push(format!("{}: shape '{}' has no triangles (skipped)", o.loc, o.plugin));
+                self.warnings.push(format!(
+                    "{}: shape '{}' has no triangles (skipped)",
+                    o.loc, o.plugin
+                ));
                 return Ok(());
             }
         }
         let shape_index = self.geometries.len() as u32;
-        let area_emitter = o.children_of(&ObjectClass::Emitter).next().map(|c| c.object.clone());
-        let bsdf_child = o.children_of(&ObjectClass::Bsdf).next().map(|c| c.object.clone());
+        let area_emitter = o
+            .children_of(&ObjectClass::Emitter)
+            .next()
+            .map(|c| c.object.clone());
+        let bsdf_child = o
+            .children_of(&ObjectClass::Bsdf)
+            .next()
+            .map(|c| c.object.clone());
         let bsdf = match bsdf_child {
             Some(b) => self.bsdf_for(&b)?,
             None => {
                 // Mitsuba: grey 0.5 diffuse, or black for emitters.
                 let refl = if area_emitter.is_some() { 0.0 } else { 0.5 };
                 let i = self.bsdfs.len() as u32;
-                self.bsdfs.push(Bsdf::Diffuse(Diffuse { reflectance: Texture::constant(refl) }));
+                self.bsdfs.push(Bsdf::Diffuse(Diffuse {
+                    reflectance: Texture::constant(refl),
+                }));
                 i
             }
         };
@@ -328,9 +396,15 @@ impl Builder<'_> {
             }
             None => None,
         };
-        let name = o.id.clone().unwrap_or_else(|| format!("{} at {}", o.plugin, o.loc));
+        let name =
+            o.id.clone()
+                .unwrap_or_else(|| format!("{} at {}", o.plugin, o.loc));
         self.geometries.push(geometry);
-        self.shapes.push(ShapeInfo { bsdf, emitter, name });
+        self.shapes.push(ShapeInfo {
+            bsdf,
+            emitter,
+            name,
+        });
         Ok(())
     }
 
@@ -344,7 +418,10 @@ impl Builder<'_> {
             if v.is_finite() && v.min_element() >= 0.0 {
                 Ok(v)
             } else {
-                Err(o.error(format!("emitter '{}': {name} must be finite and non-negative, got {v}", o.plugin)))
+                Err(o.error(format!(
+                    "emitter '{}': {name} must be finite and non-negative, got {v}",
+                    o.plugin
+                )))
             }
         };
         let emitter = match o.plugin.as_str() {
@@ -352,20 +429,28 @@ impl Builder<'_> {
                 let Some(shape) = shape else {
                     return Err(o.error("an 'area' emitter must be nested inside a <shape>"));
                 };
-                Emitter::Area { shape, radiance: nonneg("radiance", o.rgb_or("radiance", Vec3::ONE)?)? }
+                Emitter::Area {
+                    shape,
+                    radiance: nonneg("radiance", o.rgb_or("radiance", Vec3::ONE)?)?,
+                }
             }
             "point" => {
                 let position = match o.prop("position") {
                     Some(_) => o.vec3_or("position", Vec3::ZERO)?,
                     None => to_world.transform_point3(Vec3::ZERO),
                 };
-                Emitter::Point { position, intensity: nonneg("intensity", o.rgb_or("intensity", Vec3::ONE)?)? }
+                Emitter::Point {
+                    position,
+                    intensity: nonneg("intensity", o.rgb_or("intensity", Vec3::ONE)?)?,
+                }
             }
             "spot" => {
                 let cutoff = o.float_or("cutoff_angle", 20.0)?;
                 let beam = o.float_or("beam_width", cutoff * 0.75)?;
-                if !(cutoff > 0.0 && cutoff <= 180.0) || !(beam >= 0.0) {
-                    return Err(o.error(format!("spot: invalid cutoff_angle {cutoff} / beam_width {beam}")));
+                if !((0.0..=180.0).contains(&cutoff) && cutoff > 0.0 && beam >= 0.0) {
+                    return Err(o.error(format!(
+                        "spot: invalid cutoff_angle {cutoff} / beam_width {beam}"
+                    )));
                 }
                 let beam = beam.min(cutoff);
                 Emitter::Spot(SpotLight::new(
@@ -376,7 +461,9 @@ impl Builder<'_> {
                     (beam as f32).to_radians(),
                 ))
             }
-            "constant" => Emitter::Constant { radiance: nonneg("radiance", o.rgb_or("radiance", Vec3::ONE)?)? },
+            "constant" => Emitter::Constant {
+                radiance: nonneg("radiance", o.rgb_or("radiance", Vec3::ONE)?)?,
+            },
             "directional" => {
                 let dir = match o.prop("direction") {
                     Some(_) => o.vec3_or("direction", Vec3::Z)?,

@@ -56,8 +56,13 @@ impl Scene {
     ) -> Self {
         assert_eq!(geometries.len(), shapes.len());
         assert_eq!(emitters.len(), emitter_weights.len());
-        let environment = emitters.iter().position(|e| e.is_environment()).map(|i| i as u32);
-        let mut bounds = geometries.iter().fold(Aabb::EMPTY, |b, g| b.union(&g.bounds()));
+        let environment = emitters
+            .iter()
+            .position(|e| e.is_environment())
+            .map(|i| i as u32);
+        let mut bounds = geometries
+            .iter()
+            .fold(Aabb::EMPTY, |b, g| b.union(&g.bounds()));
         for p in extra_bounds {
             bounds.expand(*p);
         }
@@ -78,7 +83,16 @@ impl Scene {
             })
             .collect();
         let accel = accel(&geometries);
-        Scene { geometries, shapes, bsdfs, emitters, environment, bounds, emitter_cdf, accel }
+        Scene {
+            geometries,
+            shapes,
+            bsdfs,
+            emitters,
+            environment,
+            bounds,
+            emitter_cdf,
+            accel,
+        }
     }
 
     /// Closest surface hit along `ray`.
@@ -146,7 +160,14 @@ impl Scene {
             ShapeGeometry::Disk(d) => {
                 let p = ray.at(hit.t);
                 let n = d.normal();
-                SurfaceInteraction { t: hit.t, p, ng: n, sh_frame: Frame::from_normal(n), uv: d.uv(p), shape }
+                SurfaceInteraction {
+                    t: hit.t,
+                    p,
+                    ng: n,
+                    sh_frame: Frame::from_normal(n),
+                    uv: d.uv(p),
+                    shape,
+                }
             }
         }
     }
@@ -160,11 +181,20 @@ impl Scene {
 
     /// Chooses an emitter with `u1`, then samples a direction towards it from `x`. The returned sample's pdf
     /// and weight include the selection probability. Visibility is not tested.
-    pub fn sample_emitter_direction(&self, x: Vec3, u1: f32, u2: f32, u: Vec2) -> Option<(u32, EmitterSample)> {
+    pub fn sample_emitter_direction(
+        &self,
+        x: Vec3,
+        u1: f32,
+        u2: f32,
+        u: Vec2,
+    ) -> Option<(u32, EmitterSample)> {
         if self.emitters.is_empty() {
             return None;
         }
-        let i = self.emitter_cdf.partition_point(|&c| c <= u1).min(self.emitters.len() - 1);
+        let i = self
+            .emitter_cdf
+            .partition_point(|&c| c <= u1)
+            .min(self.emitters.len() - 1);
         let sel = self.emitter_selection_pdf(i);
         if !(sel > 0.0) {
             return None;

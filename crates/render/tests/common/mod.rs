@@ -13,18 +13,31 @@ pub use focal_render::testing::shared_dir;
 
 /// Path of a reference scene in `shared/references/scenes`.
 pub fn reference_scene(name: &str) -> PathBuf {
-    shared_dir().join("references/scenes").join(format!("{name}.xml"))
+    shared_dir()
+        .join("references/scenes")
+        .join(format!("{name}.xml"))
 }
 
 /// Settings for a fixed-spp render.
 pub fn settings(spp: u32, seed: u64, threads: usize) -> RenderSettings {
-    RenderSettings { spp, time_limit: None, seed, threads, aovs: false, sampler: SamplerKind::Independent }
+    RenderSettings {
+        spp,
+        time_limit: None,
+        seed,
+        threads,
+        aovs: false,
+        sampler: SamplerKind::Independent,
+    }
 }
 
 /// Loads a scene file with `-D` parameters.
 pub fn load(path: &Path, params: &[(&str, &str)]) -> LoadedScene {
-    let params: Vec<(String, String)> = params.iter().map(|(k, v)| (k.to_string(), v.to_string())).collect();
-    load_scene(path, &params, &BuildOptions::default()).unwrap_or_else(|e| panic!("loading {}: {e}", path.display()))
+    let params: Vec<(String, String)> = params
+        .iter()
+        .map(|(k, v)| (k.to_string(), v.to_string()))
+        .collect();
+    load_scene(path, &params, &BuildOptions::default())
+        .unwrap_or_else(|e| panic!("loading {}: {e}", path.display()))
 }
 
 /// Builds a scene from XML text (relative paths resolve against `dir`).
@@ -36,13 +49,25 @@ pub fn load_str(xml: &str, dir: &Path) -> LoadedScene {
 /// Renders a loaded scene.
 pub fn render_loaded(s: &LoadedScene, settings: &RenderSettings) -> RenderOutput {
     let integrator = make_integrator(&s.integrator);
-    render(&s.scene, &s.camera, &s.film, integrator.as_ref(), settings, &|_| {})
+    render(
+        &s.scene,
+        &s.camera,
+        &s.film,
+        integrator.as_ref(),
+        settings,
+        &|_| {},
+    )
 }
 
 /// Image means of `passes` independently seeded renders: (mean per channel, standard error per channel).
 pub fn mean_and_stderr(s: &LoadedScene, spp: u32, passes: u32) -> ([f64; 3], [f64; 3]) {
-    let means: Vec<[f64; 3]> =
-        (0..passes).map(|i| render_loaded(s, &settings(spp, 1000 + i as u64, 0)).image.mean_rgb()).collect();
+    let means: Vec<[f64; 3]> = (0..passes)
+        .map(|i| {
+            render_loaded(s, &settings(spp, 1000 + i as u64, 0))
+                .image
+                .mean_rgb()
+        })
+        .collect();
     let n = passes as f64;
     let mut mean = [0.0; 3];
     let mut se = [0.0; 3];
@@ -60,7 +85,11 @@ pub fn mitsuba_mean(json_name: &str) -> ([f64; 3], [f64; 3]) {
     let v: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&p).unwrap()).unwrap();
     let get = |k: &str| -> [f64; 3] {
         let a = v[k].as_array().unwrap();
-        [a[0].as_f64().unwrap(), a[1].as_f64().unwrap(), a[2].as_f64().unwrap()]
+        [
+            a[0].as_f64().unwrap(),
+            a[1].as_f64().unwrap(),
+            a[2].as_f64().unwrap(),
+        ]
     };
     (get("mean_rgb"), get("stderr_rgb"))
 }
