@@ -680,3 +680,55 @@ fn invalid_boxes_and_configs_are_rejected_and_flat_boxes_padded() {
         .unwrap();
     assert!(s.pdf.is_finite() && s.pdf > 0.0);
 }
+
+#[test]
+fn nose_dumps_round_trip_and_drop_orphans() {
+    use focal_guiding::octree::{load_nose, store_nose};
+    let guide = trained_guide(3, 4000, 59);
+    let tree = guide.converging();
+    let bytes = store_nose(tree, SplatStrategy::RayWeighted, true);
+    assert_eq!(&bytes[..4], b"ESON");
+    assert_eq!(
+        bytes.len(),
+        4 + 10 + 24 + 4 + 4 + 28 + 4 + 96 * tree.nodes().len()
+    );
+    let loaded = load_nose(&bytes).unwrap();
+    assert_eq!(loaded.strategy, Some(SplatStrategy::RayWeighted));
+    assert!(loaded.pruning);
+    assert_eq!(loaded.tree.nodes(), tree.nodes());
+    assert_eq!(loaded.tree.config().max_depth, 14);
+    assert!((total_probability(&loaded.tree) - 1.0).abs() < 1e-5);
+    let mut rng = Rng(61);
+    for _ in 0..500 {
+        let x = rng.in_box(DVec3::splat(-2.0), DVec3::splat(2.0));
+        let d = rng.sphere();
+        assert_eq!(loaded.tree.pdf(x, d).to_bits(), tree.pdf(x, d).to_bits());
+    }
+
+    // An orphaned node (as the original's merges leave behind) is dropped.
+    let count_at = bytes.len() - 96 * tree.nodes().len() - 4;
+    let mut orphaned = bytes.clone();
+    orphaned[count_at..count_at + 4]
+        .copy_from_slice(&(tree.nodes().len() as u32 + 1).to_le_bytes());
+    orphaned.extend_from_slice(&[0u8; 96]);
+    let loaded = load_nose(&orphaned).unwrap();
+    assert_eq!(loaded.stored_nodes, tree.nodes().len() + 1);
+    assert_eq!(loaded.tree.nodes(), tree.nodes());
+
+    // A node that lists itself as a child, a truncated file and a wrong magic are errors, not panics.
+    let first_node = count_at + 4;
+    let interior = tree.nodes()[0].iter().position(|s| s.index != 0).unwrap();
+    let child = tree.nodes()[0][interior].index;
+    let mut looped = bytes.clone();
+    let at = first_node + 96 * child as usize;
+    looped[at..at + 4].copy_from_slice(&child.to_le_bytes());
+    assert!(load_nose(&looped).is_err());
+    assert!(load_nose(&bytes[..bytes.len() - 10]).is_err());
+    assert!(load_nose(b"NOSE").is_err());
+
+    // Unlinking a subtree from the root turns it into orphans: still loadable, with fewer nodes.
+    let mut unlinked = bytes.clone();
+    let at = first_node + 12 * interior;
+    unlinked[at..at + 4].copy_from_slice(&0u32.to_le_bytes());
+    assert!(load_nose(&unlinked).unwrap().tree.nodes().len() < tree.nodes().len());
+}
