@@ -551,14 +551,15 @@ impl FocalTree {
             SplatStrategy::Ray => {
                 let scale = c / clipped;
                 self.for_each_leaf_on_ray(o, d, clipped, |hit| {
-                    accum[hit.slot] += scale * (hit.t_out - hit.t_in);
+                    add_finite(&mut accum[hit.slot], scale * (hit.t_out - hit.t_in));
                 });
             }
             SplatStrategy::RayWeighted => {
                 let scale = c / p_hat;
                 self.for_each_leaf_on_ray(o, d, clipped, |hit| {
-                    accum[hit.slot] +=
+                    let weight =
                         scale * hit.density as f64 * cube_difference_third(hit.t_in, hit.t_out);
+                    add_finite(&mut accum[hit.slot], weight);
                 });
             }
         }
@@ -698,4 +699,12 @@ fn warp_axis(u: &mut f64, low: f64, total: f64) -> Option<usize> {
 /// True for a finite value greater than zero (false for NaN).
 pub(crate) fn is_positive_finite(v: f64) -> bool {
     v.is_finite() && v > 0.0
+}
+
+/// Adds a splat weight unless it is non-finite or negative (the original skips such weights per leaf, so
+/// a pathological p̂ cannot poison the tree).
+fn add_finite(accumulator: &mut f64, weight: f64) {
+    if weight.is_finite() && weight >= 0.0 {
+        *accumulator += weight;
+    }
 }
