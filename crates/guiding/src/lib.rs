@@ -7,6 +7,7 @@
 //! iterations; sampling and pdf evaluation are read-only and thread-safe.
 
 mod distribution;
+pub mod octree;
 
 pub use distribution::{
     Aabb3, GuideSample, GuidingDistribution, TrainingSegment, UpdateContext, UpdateStats,
