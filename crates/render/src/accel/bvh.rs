@@ -9,24 +9,25 @@ use obvhs::cwbvh::{builder::build_cwbvh, CwBvh};
 use obvhs::{Boundable, BvhBuildParams};
 use std::time::Duration;
 
-/// A primitive in BVH order, with what its intersection test needs inline.
+/// Marks [`TriPrim::tri`] as an index into [`BvhAccel::analytic`] instead of a triangle index.
+const ANALYTIC: u32 = 1 << 31;
+
+/// A primitive in BVH leaf order, compact (44 bytes) so that leaf tests stream through memory. Analytic
+/// shapes are rare; they keep only their shape id and an index into a side table here.
 #[derive(Clone, Copy, Debug)]
-enum Prim {
-    Triangle {
-        v0: Vec3,
-        e1: Vec3,
-        e2: Vec3,
-        shape: u32,
-        tri: u32,
-    },
-    Sphere {
-        sphere: Sphere,
-        shape: u32,
-    },
-    Disk {
-        disk: Disk,
-        shape: u32,
-    },
+struct TriPrim {
+    v0: Vec3,
+    e1: Vec3,
+    e2: Vec3,
+    shape: u32,
+    /// Triangle index within the mesh, or `ANALYTIC | index into the analytic table`.
+    tri: u32,
+}
+
+#[derive(Clone, Copy, Debug)]
+enum Analytic {
+    Sphere(Sphere),
+    Disk(Disk),
 }
 
 struct Bounded(BAabb);
@@ -40,105 +41,113 @@ impl Boundable for Bounded {
 /// The default acceleration structure.
 pub struct BvhAccel {
     bvh: CwBvh,
-    prims: Vec<Prim>,
+    prims: Vec<TriPrim>,
+    analytic: Vec<Analytic>,
 }
 
 impl BvhAccel {
     /// Builds a BVH over all primitives of `shapes` (shape index = position in the slice).
     pub fn build(shapes: &[ShapeGeometry]) -> Self {
         let mut prims = Vec::new();
+        let mut analytic = Vec::new();
+        let mut bounds = Vec::new();
+        let mut push_analytic = |a: Analytic, shape: u32, prims: &mut Vec<TriPrim>| {
+            prims.push(TriPrim {
+                v0: Vec3::ZERO,
+                e1: Vec3::ZERO,
+                e2: Vec3::ZERO,
+                shape,
+                tri: ANALYTIC | analytic.len() as u32,
+            });
+            analytic.push(a);
+        };
         for (si, g) in shapes.iter().enumerate() {
             let shape = si as u32;
             match g {
                 ShapeGeometry::Mesh(m) => {
                     for i in 0..m.indices.len() {
                         let [a, b, c] = m.vertices(i);
-                        prims.push(Prim::Triangle {
+                        prims.push(TriPrim {
                             v0: a,
                             e1: b - a,
                             e2: c - a,
                             shape,
                             tri: i as u32,
                         });
+                        bounds.push((a.min(b).min(c), a.max(b).max(c)));
                     }
                 }
-                ShapeGeometry::Sphere(s) => prims.push(Prim::Sphere { sphere: *s, shape }),
-                ShapeGeometry::Disk(d) => prims.push(Prim::Disk { disk: *d, shape }),
+                ShapeGeometry::Sphere(s) => {
+                    push_analytic(Analytic::Sphere(*s), shape, &mut prims);
+                    let b = s.bounds();
+                    bounds.push((b.min, b.max));
+                }
+                ShapeGeometry::Disk(d) => {
+                    push_analytic(Analytic::Disk(*d), shape, &mut prims);
+                    let b = d.bounds();
+                    bounds.push((b.min, b.max));
+                }
             }
         }
-        let bounds: Vec<Bounded> = prims
-            .iter()
-            .map(|p| {
-                let (lo, hi) = match p {
-                    Prim::Triangle { v0, e1, e2, .. } => {
-                        let (a, b, c) = (*v0, *v0 + *e1, *v0 + *e2);
-                        (a.min(b).min(c), a.max(b).max(c))
-                    }
-                    Prim::Sphere { sphere, .. } => {
-                        let b = sphere.bounds();
-                        (b.min, b.max)
-                    }
-                    Prim::Disk { disk, .. } => {
-                        let b = disk.bounds();
-                        (b.min, b.max)
-                    }
-                };
-                Bounded(BAabb::new(Vec3A::from(lo), Vec3A::from(hi)))
-            })
+        let bounds: Vec<Bounded> = bounds
+            .into_iter()
+            .map(|(lo, hi)| Bounded(BAabb::new(Vec3A::from(lo), Vec3A::from(hi))))
             .collect();
-        let bvh = if bounds.is_empty() {
-            CwBvh::default()
-        } else {
-            build_cwbvh(
-                &bounds,
-                BvhBuildParams::medium_build(),
-                &mut Duration::default(),
-            )
-        };
+        if bounds.is_empty() {
+            return BvhAccel {
+                bvh: CwBvh::default(),
+                prims,
+                analytic,
+            };
+        }
+        let bvh = build_cwbvh(
+            &bounds,
+            BvhBuildParams::medium_build(),
+            &mut Duration::default(),
+        );
         // Store primitives in BVH leaf order so that traversal reads them sequentially.
-        let prims = if bounds.is_empty() {
-            prims
-        } else {
-            bvh.primitive_indices
-                .iter()
-                .map(|&i| prims[i as usize])
-                .collect()
-        };
-        BvhAccel { bvh, prims }
+        let prims = bvh
+            .primitive_indices
+            .iter()
+            .map(|&i| prims[i as usize])
+            .collect();
+        BvhAccel {
+            bvh,
+            prims,
+            analytic,
+        }
     }
 
-    #[inline]
-    fn intersect_prim(prim: &Prim, o: Vec3, d: Vec3, t_max: f32) -> Option<(f32, Vec2)> {
-        match prim {
-            Prim::Triangle { v0, e1, e2, .. } => {
-                // Möller–Trumbore.
-                let p = d.cross(*e2);
-                let det = e1.dot(p);
-                if det == 0.0 {
-                    return None;
-                }
-                let inv = 1.0 / det;
-                let s = o - *v0;
-                let b1 = s.dot(p) * inv;
-                if !(0.0..=1.0).contains(&b1) {
-                    return None;
-                }
-                let q = s.cross(*e1);
-                let b2 = d.dot(q) * inv;
-                if b2 < 0.0 || b1 + b2 > 1.0 {
-                    return None;
-                }
-                let t = e2.dot(q) * inv;
-                if t > 0.0 && t < t_max {
-                    Some((t, Vec2::new(b1, b2)))
-                } else {
-                    None
-                }
-            }
-            Prim::Sphere { sphere, .. } => {
-                sphere.intersect(o, d, 0.0, t_max).map(|t| (t, Vec2::ZERO))
-            }
-            Prim::Disk { disk, .. } => disk.intersect(o, d, 0.0, t_max).map(|t| (t, Vec2::ZERO)),
+    #[inline(always)]
+    fn intersect_prim(&self, prim: &TriPrim, o: Vec3, d: Vec3, t_max: f32) -> Option<(f32, Vec2)> {
+        if prim.tri & ANALYTIC != 0 {
+            return match &self.analytic[(prim.tri & !ANALYTIC) as usize] {
+                Analytic::Sphere(s) => s.intersect(o, d, 0.0, t_max).map(|t| (t, Vec2::ZERO)),
+                Analytic::Disk(k) => k.intersect(o, d, 0.0, t_max).map(|t| (t, Vec2::ZERO)),
+            };
+        }
+        // Möller–Trumbore.
+        let p = d.cross(prim.e2);
+        let det = prim.e1.dot(p);
+        if det == 0.0 {
+            return None;
+        }
+        let inv = 1.0 / det;
+        let s = o - prim.v0;
+        let b1 = s.dot(p) * inv;
+        if !(0.0..=1.0).contains(&b1) {
+            return None;
+        }
+        let q = s.cross(prim.e1);
+        let b2 = d.dot(q) * inv;
+        if b2 < 0.0 || b1 + b2 > 1.0 {
+            return None;
+        }
+        let t = prim.e2.dot(q) * inv;
+        if t > 0.0 && t < t_max {
+            Some((t, Vec2::new(b1, b2)))
+        } else {
+            None
         }
     }
 
@@ -157,26 +166,22 @@ impl Accel for BvhAccel {
         let (o, d) = (ray.o, ray.d);
         let found = self
             .bvh
-            .ray_traverse(
-                Self::to_bvh_ray(ray),
-                &mut hit,
-                |r, id| match Self::intersect_prim(&self.prims[id], o, d, r.tmax) {
+            .ray_traverse(Self::to_bvh_ray(ray), &mut hit, |r, id| {
+                match self.intersect_prim(&self.prims[id], o, d, r.tmax) {
                     Some((t, b)) => {
                         best = Some((id, b));
                         t
                     }
                     None => f32::INFINITY,
-                },
-            );
+                }
+            });
         if !found {
             return None;
         }
         let (id, bary) = best?;
         debug_assert_eq!(id as u32, hit.primitive_id);
-        let (shape, prim) = match self.prims[id] {
-            Prim::Triangle { shape, tri, .. } => (shape, tri),
-            Prim::Sphere { shape, .. } | Prim::Disk { shape, .. } => (shape, 0),
-        };
+        let p = &self.prims[id];
+        let (shape, prim) = (p.shape, if p.tri & ANALYTIC != 0 { 0 } else { p.tri });
         Some(PrimHit {
             t: hit.t,
             shape,
@@ -191,7 +196,8 @@ impl Accel for BvhAccel {
         }
         let (o, d) = (ray.o, ray.d);
         !self.bvh.ray_traverse_miss(Self::to_bvh_ray(ray), |r, id| {
-            Self::intersect_prim(&self.prims[id], o, d, r.tmax).map_or(f32::INFINITY, |(t, _)| t)
+            self.intersect_prim(&self.prims[id], o, d, r.tmax)
+                .map_or(f32::INFINITY, |(t, _)| t)
         })
     }
 }

@@ -315,14 +315,16 @@ impl Builder<'_> {
                 ShapeGeometry::Mesh(mesh_from_data(data, flip))
             }
             "rectangle" | "cube" => {
-                let (p, n, uv, idx) = if o.plugin == "rectangle" {
+                // Flat faces: the shading normal is the face normal (as Mitsuba's analytic rectangle), so the
+                // per-vertex normals are not kept.
+                let (p, _face_normals, uv, idx) = if o.plugin == "rectangle" {
                     rectangle_mesh()
                 } else {
                     cube_mesh()
                 };
                 let mut data = MeshData {
                     positions: p,
-                    normals: Some(n),
+                    normals: None,
                     uvs: Some(uv),
                     indices: idx,
                 };

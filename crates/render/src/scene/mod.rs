@@ -112,27 +112,39 @@ impl Scene {
         let shape = hit.shape;
         match &self.geometries[shape as usize] {
             ShapeGeometry::Mesh(m) => {
-                let i = hit.prim as usize;
                 let b = hit.bary;
-                let [a, bb, c] = m.vertices(i);
-                let p = a * (1.0 - b.x - b.y) + bb * b.x + c * b.y;
-                let ng = m.face_normal(i);
-                let ns = m.shading_normal(i, b);
-                let uv = m.uv(i, b);
-                // dp/du from the uv parameterisation gives anisotropic BSDFs a consistent tangent.
-                let tangent = match &m.uvs {
-                    Some(uvs) => {
-                        let [i0, i1, i2] = m.indices[i];
-                        let (t0, t1, t2) = (uvs[i0 as usize], uvs[i1 as usize], uvs[i2 as usize]);
-                        let (d1, d2) = (t1 - t0, t2 - t0);
-                        let det = d1.x * d2.y - d1.y * d2.x;
-                        if det.abs() > 1e-12 {
-                            ((bb - a) * d2.y - (c - a) * d1.y) / det
+                let b0 = 1.0 - b.x - b.y;
+                let [i0, i1, i2] = m.indices[hit.prim as usize].map(|k| k as usize);
+                let (a, bb, c) = (m.positions[i0], m.positions[i1], m.positions[i2]);
+                let p = a * b0 + bb * b.x + c * b.y;
+                let (e1, e2) = (bb - a, c - a);
+                let sign = if m.flip_normals { -1.0 } else { 1.0 };
+                let ng = e1.cross(e2).normalize() * sign;
+                let ns = match &m.normals {
+                    Some(n) => {
+                        let v = (n[i0] * b0 + n[i1] * b.x + n[i2] * b.y).normalize_or_zero();
+                        if v == Vec3::ZERO {
+                            ng
                         } else {
-                            bb - a
+                            v * sign
                         }
                     }
-                    None => bb - a,
+                    None => ng,
+                };
+                // dp/du from the uv parameterisation gives anisotropic BSDFs a consistent tangent.
+                let (uv, tangent) = match &m.uvs {
+                    Some(uvs) => {
+                        let (t0, t1, t2) = (uvs[i0], uvs[i1], uvs[i2]);
+                        let (d1, d2) = (t1 - t0, t2 - t0);
+                        let det = d1.x * d2.y - d1.y * d2.x;
+                        let tangent = if det.abs() > 1e-12 {
+                            (e1 * d2.y - e2 * d1.y) / det
+                        } else {
+                            e1
+                        };
+                        (t0 * b0 + t1 * b.x + t2 * b.y, tangent)
+                    }
+                    None => (b, e1),
                 };
                 SurfaceInteraction {
                     t: hit.t,
