@@ -138,3 +138,65 @@ impl Sampler {
         Vec2::new(x, y)
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn streams_are_pure_functions_of_seed_pixel_and_index() {
+        for kind in [SamplerKind::Independent, SamplerKind::Sobol] {
+            let a: Vec<f32> = {
+                let mut s = Sampler::new(kind, 7, 123, 5);
+                (0..40).map(|_| s.next_1d()).collect()
+            };
+            let b: Vec<f32> = {
+                let mut s = Sampler::new(kind, 7, 123, 5);
+                (0..40).map(|_| s.next_1d()).collect()
+            };
+            assert_eq!(a, b);
+            for (seed, pixel, index) in [(8, 123, 5), (7, 124, 5), (7, 123, 6)] {
+                let mut s = Sampler::new(kind, seed, pixel, index);
+                let c: Vec<f32> = (0..40).map(|_| s.next_1d()).collect();
+                assert_ne!(
+                    a, c,
+                    "{kind:?}: ({seed}, {pixel}, {index}) repeats another stream"
+                );
+            }
+            assert!(a.iter().all(|v| (0.0..1.0).contains(v)));
+        }
+    }
+
+    #[test]
+    fn sobol_first_dimensions_are_stratified_per_pixel() {
+        // The first 256 Owen-scrambled Sobol' points in dimensions (0, 1) form a (0, 8, 2)-net: exactly one
+        // point in each of the 16 × 16 strata.
+        for pixel in [0u64, 17, 99_999] {
+            let mut counts = [0u32; 256];
+            for i in 0..256 {
+                let mut s = Sampler::new(SamplerKind::Sobol, 3, pixel, i);
+                let p = s.next_2d();
+                counts[(p.y * 16.0) as usize * 16 + (p.x * 16.0) as usize] += 1;
+            }
+            assert!(counts.iter().all(|&c| c == 1), "pixel {pixel}: {counts:?}");
+        }
+    }
+
+    #[test]
+    fn independent_values_are_uniform() {
+        let mut s = Sampler::independent(1, 2);
+        let n = 200_000;
+        let mut bins = [0u32; 10];
+        let mut sum = 0.0f64;
+        for _ in 0..n {
+            let v = s.next_1d();
+            bins[(v * 10.0) as usize] += 1;
+            sum += v as f64;
+        }
+        assert!((sum / n as f64 - 0.5).abs() < 0.003);
+        // Chi-square with 9 degrees of freedom: 27.9 is the 0.999 quantile.
+        let e = n as f64 / 10.0;
+        let chi2: f64 = bins.iter().map(|&c| (c as f64 - e).powi(2) / e).sum();
+        assert!(chi2 < 27.9, "chi2 {chi2}");
+    }
+}

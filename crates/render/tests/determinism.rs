@@ -19,3 +19,21 @@ fn same_seed_same_image_for_any_thread_count() {
         "a different seed must give a different image"
     );
 }
+
+#[test]
+fn sobol_and_independent_converge_to_the_same_mean() {
+    use focal_render::sampler::SamplerKind;
+    let scene = load(&reference_scene("cbox"), &[("res", "64")]);
+    let mut st = settings(64, 9, 0);
+    let indep = render_loaded(&scene, &st).image.mean_rgb();
+    st.sampler = SamplerKind::Sobol;
+    let sobol = render_loaded(&scene, &st).image.mean_rgb();
+    for c in 0..3 {
+        assert!(
+            (indep[c] - sobol[c]).abs() < 0.01 * indep[c],
+            "channel {c}: {} vs {}",
+            indep[c],
+            sobol[c]
+        );
+    }
+}
