@@ -85,9 +85,14 @@ pub trait GuidingDistribution: Send + Sync {
     /// The exact solid-angle pdf of [`GuidingDistribution::sample`] producing unit direction `d` from `x`.
     fn pdf(&self, x: Vec3, normal: Option<Vec3>, d: Vec3) -> f32;
 
-    /// Learns from one iteration's segments (given in a deterministic order) and rebuilds the model.
-    /// Deterministic: the same segments and context give a bit-identical model for any `threads`.
-    fn update(&mut self, segments: &[TrainingSegment], ctx: &UpdateContext) -> UpdateStats;
+    /// Takes one batch of the current iteration's training segments. The renderer calls it between
+    /// render passes, with batches in a deterministic order; it must not change what `sample` and `pdf`
+    /// return (the model stays fixed for the whole iteration) until the next `update`.
+    fn record(&mut self, segments: &[TrainingSegment]);
+
+    /// Learns from everything recorded since the last update and rebuilds the model.
+    /// Deterministic: the same batches and context give a bit-identical model for any `threads`.
+    fn update(&mut self, ctx: &UpdateContext) -> UpdateStats;
 
     /// A versioned binary snapshot of the model (see the implementation's `load`).
     fn save(&self) -> Vec<u8>;

@@ -114,7 +114,10 @@ fn trained_guide(iterations: u32, n: usize, seed: u64) -> FocalOctreeGuide {
     for i in 0..iterations {
         let mut segments = focal_segments(&mut rng, n);
         segments.extend(virtual_image_segments(&mut rng, n / 4));
-        guide.update(&segments, &context(i, 3 * iterations, 1));
+        {
+            guide.record(&segments);
+            guide.update(&context(i, 3 * iterations, 1))
+        };
     }
     guide
 }
@@ -405,7 +408,10 @@ fn sampled_directions_follow_the_binned_pdf() {
             s.origin += (rng.sphere() * 0.25).as_vec3();
         }
         segments.extend(virtual_image_segments(&mut rng, 3000));
-        guide.update(&segments, &context(i, 6, 1));
+        {
+            guide.record(&segments);
+            guide.update(&context(i, 6, 1))
+        };
     }
     let x = Vec3::new(1.3, 0.85, 0.9);
     let (n_cos, n_phi, sub) = (16usize, 32usize, 12usize);
@@ -557,8 +563,12 @@ fn a_focal_point_is_learned_and_narrowed() {
     let mut depth_narrowed = 0;
     for i in 0..iterations {
         let segments = focal_segments(&mut rng, 20_000);
-        let stats = guide.update(&segments, &context(i, iterations, 0));
-        assert_eq!(guide.strategy() == SplatStrategy::RayWeighted, i >= 6);
+        let stats = {
+            guide.record(&segments);
+            guide.update(&context(i, iterations, 0))
+        };
+        // After update, the strategy is that of the next iteration.
+        assert_eq!(guide.strategy() == SplatStrategy::RayWeighted, i + 1 >= 6);
         assert_eq!(stats.segments, 20_000);
         if i == 5 {
             depth_before_narrowing = guide.converging().max_leaf_depth();
@@ -604,11 +614,22 @@ fn updates_are_deterministic_for_any_thread_count() {
     let mut segments = focal_segments(&mut rng, 15_000);
     segments.extend(virtual_image_segments(&mut rng, 5_000));
     let run = |threads: usize| {
-        let mut guide = FocalOctreeGuide::new(scene_box(), OctreeGuideConfig::default()).unwrap();
-        for i in 0..3 {
-            guide.update(&segments, &context(i, 3, threads));
-        }
-        guide.save()
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap();
+        pool.install(|| {
+            let mut guide =
+                FocalOctreeGuide::new(scene_box(), OctreeGuideConfig::default()).unwrap();
+            for i in 0..3 {
+                // Batches of uneven size, as render passes deliver them.
+                let (a, b) = segments.split_at(7_000);
+                guide.record(a);
+                guide.record(b);
+                guide.update(&context(i, 3, threads));
+            }
+            guide.save()
+        })
     };
     let one = run(1);
     assert_eq!(one, run(2));

@@ -117,6 +117,28 @@ pub struct FocalOctreeGuide {
     aabb: Aabb3,
     config: OctreeGuideConfig,
     strategy: SplatStrategy,
+    pending: PendingSplats,
+}
+
+/// Splats recorded since the last build, per slot of the current trees.
+#[derive(Clone, Debug, Default)]
+struct PendingSplats {
+    conv: Vec<f64>,
+    div: Vec<f64>,
+    /// Converging splats, diverging splats, dropped segments.
+    counts: [u64; 3],
+    segments: u64,
+}
+
+impl PendingSplats {
+    fn for_trees(conv: &FocalTree, div: &FocalTree) -> Self {
+        Self {
+            conv: vec![0.0; conv.slot_count()],
+            div: vec![0.0; div.slot_count()],
+            counts: [0; 3],
+            segments: 0,
+        }
+    }
 }
 
 impl FocalOctreeGuide {
@@ -128,13 +150,17 @@ impl FocalOctreeGuide {
         config.validate()?;
         let aabb = padded_aabb(aabb)?;
         let tree_config = config.tree_config();
+        let conv = FocalTree::new(aabb, tree_config);
+        let div = FocalTree::new(aabb, tree_config);
+        let pending = PendingSplats::for_trees(&conv, &div);
         Ok(Self {
-            conv: FocalTree::new(aabb, tree_config),
-            div: FocalTree::new(aabb, tree_config),
+            conv,
+            div,
             p_div: 0.5,
             aabb,
             config,
             strategy: SplatStrategy::Ray,
+            pending,
         })
     }
 
@@ -293,6 +319,7 @@ impl FocalOctreeGuide {
         };
         let conv = snapshot.conv.into_tree(aabb)?;
         let div = snapshot.div.into_tree(aabb)?;
+        let pending = PendingSplats::for_trees(&conv, &div);
         Ok(Self {
             conv,
             div,
@@ -300,6 +327,7 @@ impl FocalOctreeGuide {
             aabb,
             config: snapshot.config,
             strategy,
+            pending,
         })
     }
 }
@@ -346,29 +374,29 @@ impl GuidingDistribution for FocalOctreeGuide {
         }
     }
 
-    /// Splats the iteration's segments (RAY, or RAY_WEIGHTED from iteration ⌊2N/3⌋), then builds both
-    /// trees with the shared threshold thr·(W_conv + W_div), sets p_div = W_div / (W_conv + W_div), and
-    /// applies the decay of the iteration that follows (0.25 from ⌊2N/3⌋). The build before the final
-    /// render prunes and resets the minimum depth.
-    fn update(&mut self, segments: &[TrainingSegment], ctx: &UpdateContext) -> UpdateStats {
+    /// Splats the batch into the pending per-slot buffers with the strategy of the current iteration
+    /// (RAY, or RAY_WEIGHTED from iteration ⌊2N/3⌋); the trees themselves are untouched until `update`.
+    fn record(&mut self, segments: &[TrainingSegment]) {
+        let (conv, div, counts) = self.splat_segments(segments);
+        add_into(&mut self.pending.conv, &conv);
+        add_into(&mut self.pending.div, &div);
+        for (total, n) in self.pending.counts.iter_mut().zip(counts) {
+            *total += n;
+        }
+        self.pending.segments += segments.len() as u64;
+    }
+
+    /// Adds the recorded splats, then builds both trees with the shared threshold
+    /// thr·(W_conv + W_div), sets p_div = W_div / (W_conv + W_div), and applies the decay and splatting
+    /// strategy of the iteration that follows (RAY_WEIGHTED and decay 0.25 from ⌊2N/3⌋). The build
+    /// before the final render prunes and resets the minimum depth.
+    fn update(&mut self, ctx: &UpdateContext) -> UpdateStats {
         let start = Instant::now();
         let narrowing_start = 2 * ctx.training_iterations / 3;
-        self.strategy = if ctx.iteration >= narrowing_start {
-            SplatStrategy::RayWeighted
-        } else {
-            SplatStrategy::Ray
-        };
-
-        let pool = rayon::ThreadPoolBuilder::new()
-            .num_threads(ctx.threads)
-            .build();
-        let (conv_mass, div_mass, counts) = match &pool {
-            Ok(pool) => pool.install(|| self.splat_segments(segments)),
-            // Without a pool the global one runs the same chunks: the result is identical.
-            Err(_) => self.splat_segments(segments),
-        };
-        self.conv.accumulate(&conv_mass);
-        self.div.accumulate(&div_mass);
+        let pending = std::mem::take(&mut self.pending);
+        let counts = pending.counts;
+        self.conv.accumulate(&pending.conv);
+        self.div.accumulate(&pending.div);
 
         let next_iteration = ctx.iteration + 1;
         let decay = if next_iteration >= narrowing_start {
@@ -389,6 +417,14 @@ impl GuidingDistribution for FocalOctreeGuide {
         let t_abs = self.config.threshold * (w_conv + w_div);
         let conv_report = self.conv.build(t_abs, ctx.final_build);
         let div_report = self.div.build(t_abs, ctx.final_build);
+
+        let splatted_with = self.strategy;
+        self.strategy = if next_iteration >= narrowing_start {
+            SplatStrategy::RayWeighted
+        } else {
+            SplatStrategy::Ray
+        };
+        self.pending = PendingSplats::for_trees(&self.conv, &self.div);
 
         let conv_stats = TreeStats::of(&self.conv);
         let div_stats = TreeStats::of(&self.div);
@@ -415,12 +451,12 @@ impl GuidingDistribution for FocalOctreeGuide {
             ),
             (
                 "narrowing".into(),
-                (self.strategy == SplatStrategy::RayWeighted) as u8 as f64,
+                (splatted_with == SplatStrategy::RayWeighted) as u8 as f64,
             ),
             ("pruning".into(), ctx.final_build as u8 as f64),
         ];
         UpdateStats {
-            segments: segments.len() as u64,
+            segments: pending.segments,
             model_size: (conv_stats.leaves + div_stats.leaves) as u64,
             seconds: start.elapsed().as_secs_f64(),
             details,
