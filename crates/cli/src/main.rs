@@ -1,6 +1,7 @@
 //! `focal`: render Mitsuba scenes, benchmark the path tracer. Thin: all the work is in `focal-render`.
 
 mod bench;
+mod metrics_cmd;
 mod render_cmd;
 
 use clap::{Parser, Subcommand};
@@ -20,6 +21,8 @@ enum Command {
     Render(render_cmd::RenderArgs),
     /// Measure path-tracing throughput (samples/s) on the reference scenes.
     Bench(bench::BenchArgs),
+    /// Error metrics (relMSE, MSE, MAPE, SMAPE) of an image against a reference.
+    Metrics(metrics_cmd::MetricsArgs),
 }
 
 fn main() -> ExitCode {
@@ -27,6 +30,7 @@ fn main() -> ExitCode {
     let result = match cli.command {
         Command::Render(a) => render_cmd::run(a),
         Command::Bench(a) => bench::run(a),
+        Command::Metrics(a) => metrics_cmd::run(a),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

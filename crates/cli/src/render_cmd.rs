@@ -2,10 +2,14 @@
 
 use anyhow::{bail, Context, Result};
 use clap::Args;
+use focal_render::guide::{load_guide, make_guide, GuideParams, GuidingMethod};
+use focal_render::integrator::{GuidedSettings, Roulette};
 use focal_render::load::{load_scene, make_integrator};
+use focal_render::render::combine::Combine;
+use focal_render::render::guided::{render_guided, GuidedRenderSettings, TrainingBudget};
 use focal_render::render::{render, RenderSettings};
 use focal_render::sampler::SamplerKind;
-use focal_render::scene::{BuildOptions, Strictness};
+use focal_render::scene::{BuildOptions, GuidedSpec, IntegratorSpec, Strictness};
 use indicatif::{ProgressBar, ProgressStyle};
 use std::path::PathBuf;
 use std::time::Duration;
@@ -54,6 +58,45 @@ pub struct RenderArgs {
     /// No progress bar.
     #[arg(long, short)]
     pub quiet: bool,
+    #[command(flatten)]
+    pub guiding: GuidingArgs,
+}
+
+/// Options of guided renders (`--guiding`, or a scene whose integrator is `guided`/`focal_path`).
+#[derive(Args, Debug, Clone)]
+pub struct GuidingArgs {
+    /// Guided rendering with this guide: none, octree. Default: the scene's integrator decides.
+    #[arg(long, value_name = "METHOD")]
+    pub guiding: Option<String>,
+    /// Training iterations (time budget: their number, default 15 as Rath et al.; sample budget: the
+    /// most doubling iterations, default 16).
+    #[arg(long)]
+    pub iterations: Option<u32>,
+    /// Share of a --time budget spent training (default 0.5).
+    #[arg(long)]
+    pub train_fraction: Option<f64>,
+    /// How the iterations' images are combined: variance (inverse-variance weighting) or last (Rath).
+    #[arg(long, default_value = "variance")]
+    pub combine: String,
+    /// Probability of sampling the guide instead of the BSDF at guided vertices.
+    #[arg(long)]
+    pub guide_fraction: Option<f32>,
+    /// Russian roulette of guided renders: albedo (default; survival by the product of BSDF albedos),
+    /// throughput (Mitsuba's, which undoes guiding's gains) or off (Rath et al.; set a max_depth).
+    #[arg(long)]
+    pub rr: Option<String>,
+    /// Do not train on segments that escaped the scene (Rath et al. drop them).
+    #[arg(long)]
+    pub no_escaped: bool,
+    /// Octree relative split threshold (orth.threshold).
+    #[arg(long)]
+    pub octree_threshold: Option<f64>,
+    /// Write the trained guide to this file after training.
+    #[arg(long, value_name = "PATH")]
+    pub save_guide: Option<PathBuf>,
+    /// Use a guide trained earlier (--save-guide) and skip training.
+    #[arg(long, value_name = "PATH")]
+    pub load_guide: Option<PathBuf>,
 }
 
 /// Parses `-D name=value` arguments.
@@ -74,6 +117,55 @@ pub fn parse_sampler(s: &str) -> Result<SamplerKind> {
         "sobol" | "stratified" => Ok(SamplerKind::Sobol),
         _ => bail!("unknown sampler '{s}' (independent or sobol)"),
     }
+}
+
+/// The guided render a run asks for: `--guiding` on the command line, else a guided scene integrator;
+/// `None` for a plain render.
+fn guided_spec(scene: &IntegratorSpec, g: &GuidingArgs) -> Result<Option<GuidedSpec>> {
+    let mut spec = match (scene, &g.guiding) {
+        (IntegratorSpec::Guided(s), _) => s.clone(),
+        (IntegratorSpec::Path(p), Some(_)) => GuidedSpec {
+            method: GuidingMethod::Octree,
+            settings: GuidedSettings {
+                path: *p,
+                ..GuidedSettings::default()
+            },
+            budget_s: None,
+            iterations: None,
+            training_fraction: None,
+            params: GuideParams::default(),
+        },
+        (IntegratorSpec::Path(_), None) => {
+            if g.load_guide.is_some() || g.save_guide.is_some() {
+                bail!("--load-guide and --save-guide need a guided render (--guiding METHOD)");
+            }
+            return Ok(None);
+        }
+    };
+    if let Some(m) = &g.guiding {
+        spec.method = GuidingMethod::parse(m).map_err(|e| anyhow::anyhow!(e))?;
+    }
+    if let Some(r) = &g.rr {
+        spec.settings.roulette = Roulette::parse(r).map_err(anyhow::Error::msg)?;
+    }
+    if g.no_escaped {
+        spec.settings.train_escaped = false;
+    }
+    if let Some(f) = g.guide_fraction {
+        if !(0.0..1.0).contains(&f) {
+            bail!("--guide-fraction must lie in [0, 1), got {f}");
+        }
+        spec.settings.guide_fraction = f;
+    }
+    if let Some(t) = g.octree_threshold {
+        spec.params.octree.threshold = t;
+    }
+    if let Some(f) = g.train_fraction {
+        if !(0.0..=1.0).contains(&f) {
+            bail!("--train-fraction must lie in [0, 1], got {f}");
+        }
+    }
+    Ok(Some(spec))
 }
 
 /// Runs `focal render`.
@@ -153,14 +245,83 @@ pub fn run(a: RenderArgs) -> Result<()> {
         let rate = p.samples_done as f64 / p.elapsed.as_secs_f64().max(1e-9) / 1e6;
         bar.set_prefix(format!("{rate:.2} Msamples/s"));
     };
-    let out = render(
-        &loaded.scene,
-        &loaded.camera,
-        &loaded.film,
-        integrator.as_ref(),
-        &settings,
-        &progress,
-    );
+    let guided = guided_spec(&loaded.integrator, &a.guiding)?;
+    let mut iterations_json = serde_json::Value::Null;
+    let mut guiding_json = serde_json::Value::Null;
+    let out = match guided {
+        None => render(
+            &loaded.scene,
+            &loaded.camera,
+            &loaded.film,
+            integrator.as_ref(),
+            &settings,
+            &progress,
+        ),
+        Some(spec) => {
+            let g = &a.guiding;
+            let mut guide = match &g.load_guide {
+                Some(p) => {
+                    let bytes =
+                        std::fs::read(p).with_context(|| format!("reading {}", p.display()))?;
+                    Some(load_guide(&bytes).map_err(|e| anyhow::anyhow!("{}: {e}", p.display()))?)
+                }
+                None => make_guide(spec.method, &loaded.scene.bounds, &spec.params)
+                    .map_err(|e| anyhow::anyhow!(e))?,
+            };
+            let time = a.time.or(spec.budget_s);
+            let budget = match time {
+                Some(seconds) => TrainingBudget::Time {
+                    seconds,
+                    training_fraction: g.train_fraction.or(spec.training_fraction).unwrap_or(0.5),
+                    iterations: g.iterations.or(spec.iterations).unwrap_or(15),
+                    max_spp: a.spp.unwrap_or(u32::MAX),
+                },
+                None => TrainingBudget::Samples {
+                    spp,
+                    max_iterations: g.iterations.or(spec.iterations).unwrap_or(16),
+                },
+            };
+            let combine = match g.combine.as_str() {
+                "variance" | "inverse-variance" => Combine::InverseVariance,
+                "last" => Combine::Last,
+                other => bail!("unknown --combine '{other}' (variance or last)"),
+            };
+            let gsettings = GuidedRenderSettings {
+                render: settings.clone(),
+                integrator: spec.settings,
+                budget,
+                combine,
+                pretrained: g.load_guide.is_some(),
+            };
+            let out = render_guided(
+                &loaded.scene,
+                &loaded.camera,
+                &loaded.film,
+                guide
+                    .as_mut()
+                    .map(|g| g.as_mut() as &mut dyn focal_render::guiding::GuidingDistribution),
+                &gsettings,
+                &progress,
+            );
+            if let (Some(p), Some(guide)) = (&g.save_guide, &guide) {
+                std::fs::write(p, guide.save())
+                    .with_context(|| format!("writing {}", p.display()))?;
+            }
+            iterations_json = serde_json::to_value(&out.iterations)?;
+            guiding_json = serde_json::json!({
+                "method": spec.method.name(),
+                "settings": spec.settings,
+                "budget": budget,
+                "combine": combine,
+                "params": spec.params,
+                "loaded_guide": g.load_guide.as_ref().map(|p| p.display().to_string()),
+            });
+            focal_render::render::RenderOutput {
+                image: out.image,
+                stats: out.stats,
+            }
+        }
+    };
     bar.finish_and_clear();
 
     let mut image = out.image;
@@ -200,6 +361,8 @@ pub fn run(a: RenderArgs) -> Result<()> {
         "rejected_samples": out.stats.rejected_samples,
         "mean_rgb": mean,
         "warnings": loaded.warnings,
+        "guiding": guiding_json,
+        "iterations": iterations_json,
     });
     let json_path = output.with_extension("json");
     std::fs::write(&json_path, serde_json::to_string_pretty(&sidecar)? + "\n")

@@ -15,9 +15,11 @@ pub mod error;
 pub mod film;
 pub mod frame;
 pub mod geometry;
+pub mod guide;
 pub mod integrator;
 pub mod load;
 pub mod mesh;
+pub mod metrics;
 pub mod ray;
 pub mod render;
 pub mod sampler;
@@ -25,3 +27,6 @@ pub mod scene;
 pub mod testing;
 pub mod texture;
 pub mod warp;
+
+/// The guiding library this renderer links (re-exported so tools need not depend on it separately).
+pub use focal_guiding as guiding;

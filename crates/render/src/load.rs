@@ -2,7 +2,7 @@
 
 use crate::desc::xml::parse_scene_file;
 use crate::error::SceneResult;
-use crate::integrator::{Integrator, PathIntegrator};
+use crate::integrator::{GuidedPathIntegrator, Integrator, PathIntegrator};
 use crate::scene::{build_scene, BuildOptions, IntegratorSpec, LoadedScene};
 use std::path::Path;
 
@@ -16,9 +16,16 @@ pub fn load_scene(
     build_scene(&desc, opts)
 }
 
-/// The integrator a scene's settings ask for.
+/// The integrator a scene's settings ask for, for a single-pass render. A guided scene gets its guided
+/// path tracer without a guide here (guiding needs the iterations of
+/// [`crate::render::guided::render_guided`]).
 pub fn make_integrator(spec: &IntegratorSpec) -> Box<dyn Integrator> {
     match spec {
         IntegratorSpec::Path(s) => Box::new(PathIntegrator { settings: *s }),
+        IntegratorSpec::Guided(g) => Box::new(GuidedPathIntegrator {
+            settings: g.settings,
+            guide: None,
+            record: false,
+        }),
     }
 }

@@ -1,13 +1,16 @@
 //! Light transport estimators. A coarse extension point: the render loop drives any [`Integrator`].
 
+mod guided;
 mod path;
 
+pub use guided::{GuidedPathIntegrator, GuidedSettings, Roulette, GLOSSY_ROUGHNESS};
 pub use path::{PathIntegrator, PathSettings};
 
 use crate::color::Rgb;
 use crate::ray::Ray;
 use crate::sampler::Sampler;
 use crate::scene::Scene;
+use focal_guiding::TrainingSegment;
 use glam::Vec3;
 
 /// Auxiliary per-sample outputs recorded at the first camera hit.
@@ -23,8 +26,16 @@ pub struct FirstHitAovs {
 
 /// Estimates the radiance arriving along camera rays.
 pub trait Integrator: Send + Sync {
-    /// One-sample estimate of the radiance along `ray`; fills `aovs` at the first hit.
-    fn li(&self, scene: &Scene, ray: Ray, sampler: &mut Sampler, aovs: &mut FirstHitAovs) -> Rgb;
+    /// One-sample estimate of the radiance along `ray`; fills `aovs` at the first hit. A training
+    /// integrator appends the path's guiding segments to `training` (others leave it alone).
+    fn li(
+        &self,
+        scene: &Scene,
+        ray: Ray,
+        sampler: &mut Sampler,
+        aovs: &mut FirstHitAovs,
+        training: &mut Vec<TrainingSegment>,
+    ) -> Rgb;
 }
 
 /// The power heuristic (β = 2) weight of a strategy with density `a` against one with density `b`.

@@ -6,6 +6,7 @@ use crate::color::Rgb;
 use crate::ray::{offset_ray_origin, Ray};
 use crate::sampler::Sampler;
 use crate::scene::Scene;
+use focal_guiding::TrainingSegment;
 
 /// Settings of the path integrator, with Mitsuba's meanings.
 #[derive(Clone, Copy, Debug, serde::Serialize, serde::Deserialize)]
@@ -46,6 +47,7 @@ impl Integrator for PathIntegrator {
         mut ray: Ray,
         sampler: &mut Sampler,
         aovs: &mut FirstHitAovs,
+        _training: &mut Vec<TrainingSegment>,
     ) -> Rgb {
         let s = &self.settings;
         if s.max_depth == 0 {

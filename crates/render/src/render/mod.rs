@@ -4,11 +4,15 @@
 //! `p` and `i`), tiles are fixed, and tile blocks are merged into the film in tile order, so a fixed seed
 //! and sample count give a bit-identical image whatever the number of threads.
 
+pub mod combine;
+pub mod guided;
+
 use crate::camera::Camera;
 use crate::film::{AovSample, Film, FilmSpec, Image, ImageBlock};
 use crate::integrator::{FirstHitAovs, Integrator};
 use crate::sampler::{Sampler, SamplerKind};
 use crate::scene::Scene;
+use focal_guiding::TrainingSegment;
 use glam::{IVec2, UVec2};
 use rayon::prelude::*;
 use std::sync::atomic::{AtomicU64, Ordering};
@@ -88,21 +92,30 @@ fn tiles(spec: &FilmSpec) -> Vec<(IVec2, UVec2)> {
     out
 }
 
-/// Renders samples `[first, first + count)` of every pixel of one tile into a fresh block.
+/// What one tile of one pass produced: its image blocks (one, or two interleaved halves) and the training
+/// segments its paths recorded, in pixel and sample order.
+struct TileOutput {
+    blocks: Vec<ImageBlock>,
+    segments: Vec<TrainingSegment>,
+}
+
+/// Renders samples `[first, first + count)` of every pixel of one tile into fresh blocks; with two films,
+/// even sample indices go to the first and odd ones to the second.
 #[allow(clippy::too_many_arguments)]
 fn render_tile(
     scene: &Scene,
     camera: &Camera,
     integrator: &dyn Integrator,
-    film: &Film,
+    films: &[Film],
     settings: &RenderSettings,
     tile: (IVec2, UVec2),
     first: u32,
     count: u32,
-) -> ImageBlock {
+) -> TileOutput {
     let (offset, size) = tile;
-    let mut block = film.create_block(offset, size);
-    let width = film.width() as u64;
+    let mut blocks: Vec<ImageBlock> = films.iter().map(|f| f.create_block(offset, size)).collect();
+    let mut segments = Vec::new();
+    let width = films[0].width() as u64;
     for py in 0..size.y as i32 {
         for px in 0..size.x as i32 {
             let pixel = offset + IVec2::new(px, py);
@@ -113,17 +126,170 @@ fn render_tile(
                 let aperture = sampler.next_2d();
                 let ray = camera.generate_ray(film_pos, aperture);
                 let mut aovs = FirstHitAovs::default();
-                let l = integrator.li(scene, ray, &mut sampler, &mut aovs);
+                let l = integrator.li(scene, ray, &mut sampler, &mut aovs, &mut segments);
                 let aov = AovSample {
                     albedo: aovs.albedo,
                     normal: aovs.normal,
                     depth: aovs.depth,
                 };
-                block.put(film_pos, l, settings.aovs.then_some(&aov));
+                let half = s as usize % blocks.len();
+                blocks[half].put(film_pos, l, settings.aovs.then_some(&aov));
             }
         }
     }
-    block
+    TileOutput { blocks, segments }
+}
+
+/// A film (or two interleaved half-films) being rendered in passes on a fixed thread pool: the building
+/// block of plain renders ([`render`]) and of iterated, guided renders, which need to act between passes.
+pub struct PassRunner<'a> {
+    scene: &'a Scene,
+    camera: &'a Camera,
+    settings: RenderSettings,
+    pool: rayon::ThreadPool,
+    threads: usize,
+    films: Vec<Film>,
+    tiles: Vec<(IVec2, UVec2)>,
+    spp_done: u32,
+    passes: u32,
+}
+
+impl<'a> PassRunner<'a> {
+    /// A runner with empty films. `halves`: keep even and odd sample indices on separate films, so the
+    /// image's variance can be estimated from their difference.
+    pub fn new(
+        scene: &'a Scene,
+        camera: &'a Camera,
+        spec: &FilmSpec,
+        settings: &RenderSettings,
+        halves: bool,
+    ) -> Self {
+        let threads = if settings.threads == 0 {
+            num_cpus()
+        } else {
+            settings.threads
+        };
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .expect("thread pool");
+        let n = if halves { 2 } else { 1 };
+        PassRunner {
+            scene,
+            camera,
+            settings: settings.clone(),
+            pool,
+            threads,
+            films: (0..n)
+                .map(|_| Film::new(spec.clone(), settings.aovs))
+                .collect(),
+            tiles: tiles(spec),
+            spp_done: 0,
+            passes: 0,
+        }
+    }
+
+    /// Worker threads.
+    pub fn threads(&self) -> usize {
+        self.threads
+    }
+
+    /// Pixels of the crop window.
+    pub fn pixels(&self) -> u64 {
+        let s = self.films[0].spec().crop_size;
+        s.x as u64 * s.y as u64
+    }
+
+    /// Samples per pixel rendered so far.
+    pub fn spp_done(&self) -> u32 {
+        self.spp_done
+    }
+
+    /// Passes rendered so far.
+    pub fn passes(&self) -> u32 {
+        self.passes
+    }
+
+    /// Runs `f` on this runner's thread pool (e.g. a guide's update, so it uses the same threads).
+    pub fn install<R: Send>(&self, f: impl FnOnce() -> R + Send) -> R {
+        self.pool.install(f)
+    }
+
+    /// Renders samples `[spp_done, spp_done + count)` of every pixel and returns the training segments the
+    /// integrator recorded, in tile, pixel and sample order (deterministic for any thread count).
+    /// `on_tile` is called from worker threads with the number of pixel samples each tile finished.
+    pub fn run_pass(
+        &mut self,
+        integrator: &dyn Integrator,
+        count: u32,
+        on_tile: &(dyn Fn(u64) + Sync),
+    ) -> Vec<TrainingSegment> {
+        let first = self.spp_done;
+        let (scene, camera, films, settings, tiles) = (
+            self.scene,
+            self.camera,
+            &self.films,
+            &self.settings,
+            &self.tiles,
+        );
+        let outputs: Vec<TileOutput> = self.pool.install(|| {
+            tiles
+                .par_iter()
+                .map(|&tile| {
+                    let out = render_tile(
+                        scene, camera, integrator, films, settings, tile, first, count,
+                    );
+                    on_tile(tile.1.x as u64 * tile.1.y as u64 * count as u64);
+                    out
+                })
+                .collect()
+        });
+        let mut segments = Vec::with_capacity(outputs.iter().map(|o| o.segments.len()).sum());
+        for out in outputs {
+            for (film, block) in self.films.iter_mut().zip(&out.blocks) {
+                film.merge_block(block);
+            }
+            segments.extend_from_slice(&out.segments);
+        }
+        self.spp_done += count;
+        self.passes += 1;
+        segments
+    }
+
+    /// The developed image of all samples so far.
+    pub fn develop(&self) -> Image {
+        if self.films.len() == 1 {
+            return self.films[0].develop();
+        }
+        // The halves' filter weights differ per pixel only through the samples' positions, so the
+        // sample-count weighted mean of the developed halves is the full image up to that noise.
+        let (n0, n1) = self.half_counts();
+        let mut image = self.films[0].develop();
+        let total = (n0 + n1).max(1) as f64;
+        image.scale(n0 as f64 / total);
+        image.add_scaled(&self.films[1].develop(), n1 as f64 / total);
+        image
+    }
+
+    /// The two half images (even and odd sample indices) and their sample counts per pixel; `None` without
+    /// halves.
+    pub fn develop_halves(&self) -> Option<[(Image, u32); 2]> {
+        if self.films.len() != 2 {
+            return None;
+        }
+        let (n0, n1) = self.half_counts();
+        Some([(self.films[0].develop(), n0), (self.films[1].develop(), n1)])
+    }
+
+    fn half_counts(&self) -> (u32, u32) {
+        let n = self.spp_done;
+        (n.div_ceil(2), n / 2)
+    }
+
+    /// Samples rejected as NaN/Inf so far.
+    pub fn rejected_samples(&self) -> u64 {
+        self.films.iter().map(Film::rejected_samples).sum()
+    }
 }
 
 /// Renders `scene` through `camera` onto a film of `spec`. `progress` is called from worker threads.
@@ -135,87 +301,76 @@ pub fn render(
     settings: &RenderSettings,
     progress: &(dyn Fn(Progress) + Sync),
 ) -> RenderOutput {
-    let threads = if settings.threads == 0 {
-        num_cpus()
-    } else {
-        settings.threads
-    };
-    let pool = rayon::ThreadPoolBuilder::new()
-        .num_threads(threads)
-        .build()
-        .expect("thread pool");
-    let mut film = Film::new(spec.clone(), settings.aovs);
-    let tiles = tiles(spec);
-    let pixels = spec.crop_size.x as u64 * spec.crop_size.y as u64;
+    let mut runner = PassRunner::new(scene, camera, spec, settings, false);
+    let pixels = runner.pixels();
     let samples_total = pixels * settings.spp as u64;
     let done = AtomicU64::new(0);
     let start = Instant::now();
-    let mut spp_done = 0u32;
-    let mut passes = 0u32;
+    let on_tile = |n: u64| {
+        let d = done.fetch_add(n, Ordering::Relaxed) + n;
+        progress(Progress {
+            samples_done: d,
+            samples_total,
+            elapsed: start.elapsed(),
+        });
+    };
+    let deadline = settings.time_limit.map(|t| start + t);
     // Passes grow geometrically so that time-limited renders stop close to the budget and fixed-spp renders
     // spend little time merging.
     let mut pass_spp = 1u32;
-    while spp_done < settings.spp {
-        let count = pass_spp.min(settings.spp - spp_done);
-        let first = spp_done;
+    while runner.spp_done() < settings.spp {
+        let count = pass_spp.min(settings.spp - runner.spp_done());
         let pass_start = Instant::now();
-        let blocks: Vec<ImageBlock> = pool.install(|| {
-            tiles
-                .par_iter()
-                .map(|&tile| {
-                    let b = render_tile(
-                        scene, camera, integrator, &film, settings, tile, first, count,
-                    );
-                    let n = done.fetch_add(
-                        tile.1.x as u64 * tile.1.y as u64 * count as u64,
-                        Ordering::Relaxed,
-                    );
-                    progress(Progress {
-                        samples_done: n + tile.1.x as u64 * tile.1.y as u64 * count as u64,
-                        samples_total,
-                        elapsed: start.elapsed(),
-                    });
-                    b
-                })
-                .collect()
-        });
-        for b in &blocks {
-            film.merge_block(b);
-        }
-        spp_done += count;
-        passes += 1;
-        let pass_time = pass_start.elapsed();
-        if let Some(limit) = settings.time_limit {
-            let elapsed = start.elapsed();
-            if elapsed >= limit {
-                break;
-            }
-            // Next pass: aim at ~1/8 of the remaining time, at most doubling.
-            let per_spp = pass_time.as_secs_f64() / count as f64;
-            let remaining = (limit - elapsed).as_secs_f64();
-            let fit = ((remaining / per_spp.max(1e-9)) as u32).max(1);
-            pass_spp = (pass_spp * 2)
-                .min(fit)
-                .min(((remaining / 8.0) / per_spp.max(1e-9)).max(1.0) as u32)
-                .max(1);
-            if per_spp > remaining {
-                break;
-            }
-        } else {
-            pass_spp = (pass_spp * 2).min(32);
+        runner.run_pass(integrator, count, &on_tile);
+        match deadline {
+            Some(deadline) => match next_pass_spp(pass_spp, count, pass_start, deadline) {
+                Some(n) => pass_spp = n,
+                None => break,
+            },
+            None => pass_spp = (pass_spp * 2).min(32),
         }
     }
     let seconds = start.elapsed().as_secs_f64();
-    let image = film.develop();
+    let spp = runner.spp_done();
     let stats = RenderStats {
-        spp: spp_done,
+        spp,
         seconds,
-        samples_per_second: (pixels * spp_done as u64) as f64 / seconds.max(1e-9),
-        passes,
-        rejected_samples: film.rejected_samples(),
-        threads,
+        samples_per_second: (pixels * spp as u64) as f64 / seconds.max(1e-9),
+        passes: runner.passes(),
+        rejected_samples: runner.rejected_samples(),
+        threads: runner.threads(),
     };
-    RenderOutput { image, stats }
+    RenderOutput {
+        image: runner.develop(),
+        stats,
+    }
+}
+
+/// The size of the next pass of a render that must end by `deadline`, given that the last pass of
+/// `count` spp started at `pass_start`: about 1/8 of the remaining time, at most doubling; `None` when
+/// the budget is spent or no further pass fits.
+pub fn next_pass_spp(
+    pass_spp: u32,
+    count: u32,
+    pass_start: Instant,
+    deadline: Instant,
+) -> Option<u32> {
+    let now = Instant::now();
+    if now >= deadline {
+        return None;
+    }
+    let per_spp = (now - pass_start).as_secs_f64() / count.max(1) as f64;
+    let remaining = (deadline - now).as_secs_f64();
+    if per_spp > remaining {
+        return None;
+    }
+    let fit = ((remaining / per_spp.max(1e-9)) as u32).max(1);
+    Some(
+        (pass_spp.saturating_mul(2))
+            .min(fit)
+            .min(((remaining / 8.0) / per_spp.max(1e-9)).max(1.0) as u32)
+            .max(1),
+    )
 }
 
 /// Number of logical cores.

@@ -10,7 +10,8 @@ use crate::emitter::{Emitter, SpotLight};
 use crate::error::{SceneError, SceneResult};
 use crate::film::{film_from_desc, FilmSpec};
 use crate::geometry::{cube_mesh, rectangle_mesh, Disk, ShapeGeometry, Sphere, TriangleMesh};
-use crate::integrator::PathSettings;
+use crate::guide::{GuideParams, GuidingMethod};
+use crate::integrator::{GuidedSettings, PathSettings, Roulette};
 use crate::mesh::{load_obj, load_ply, MeshData};
 use crate::sampler::SamplerKind;
 use crate::texture::Texture;
@@ -24,6 +25,26 @@ pub enum IntegratorSpec {
     /// Unidirectional path tracing (`path`; also `volpath` in scenes without media, and `direct` as a
     /// path tracer limited to direct lighting, max_depth 2).
     Path(PathSettings),
+    /// Guided path tracing with a learned guide (`guided`, or Rath et al.'s `focal_path`).
+    Guided(GuidedSpec),
+}
+
+/// A guided integrator element's settings; the command line may override each.
+#[derive(Clone, Debug, serde::Serialize, serde::Deserialize)]
+pub struct GuidedSpec {
+    /// Which guide is learned.
+    pub method: GuidingMethod,
+    /// Integrator settings (depth, Russian roulette, guide fraction).
+    pub settings: GuidedSettings,
+    /// Total time budget in seconds (`budget`), if the element sets one.
+    pub budget_s: Option<f64>,
+    /// Number of training iterations (`iteration_count`/`iterationCount`), if set.
+    pub iterations: Option<u32>,
+    /// Share of the time budget spent training (`training_fraction`, or Rath's
+    /// `iterationCount × iterationBudget / budget`), if set.
+    pub training_fraction: Option<f64>,
+    /// Guide parameters (`orth.threshold`, `orth.decay`, `orth.min_depth`, `orth.max_depth`).
+    pub params: GuideParams,
 }
 
 /// How to handle plugins we do not support.
@@ -239,10 +260,67 @@ impl Builder<'_> {
         let source = i.filter(|i| {
             matches!(
                 i.plugin.as_str(),
-                "path" | "volpath" | "direct" | "guided_path"
+                "path" | "volpath" | "direct" | "guided_path" | "guided" | "focal_path"
             )
         });
         match name.as_str() {
+            "guided" | "focal_path" | "guided_path" => {
+                let path = read(source, -1)?;
+                let mut spec = GuidedSpec {
+                    method: GuidingMethod::Octree,
+                    settings: GuidedSettings {
+                        path,
+                        ..GuidedSettings::default()
+                    },
+                    budget_s: None,
+                    iterations: None,
+                    training_fraction: None,
+                    params: GuideParams::default(),
+                };
+                if let Some(i) = source {
+                    let method = i.string_or("method", "octree")?;
+                    spec.method = GuidingMethod::parse(&method).map_err(|e| i.error(e))?;
+                    // Rath's focal_path has no roulette; our `guided` uses the albedo roulette.
+                    let default_rr = if i.plugin == "focal_path" {
+                        "off"
+                    } else {
+                        "albedo"
+                    };
+                    spec.settings.roulette = Roulette::parse(&i.string_or("roulette", default_rr)?)
+                        .map_err(|e| i.error(e))?;
+                    let fraction = i.float_or("guide_fraction", 0.5)?;
+                    if !(0.0..1.0).contains(&fraction) {
+                        return Err(
+                            i.error(format!("guide_fraction must lie in [0, 1), got {fraction}"))
+                        );
+                    }
+                    spec.settings.guide_fraction = fraction as f32;
+                    spec.budget_s = i.float_opt("budget")?;
+                    if let Some(b) = spec.budget_s {
+                        if !(b > 0.0) {
+                            return Err(i.error(format!("budget must be positive, got {b}")));
+                        }
+                    }
+                    let count = i.int_or("iteration_count", -1)?;
+                    if count >= 0 {
+                        spec.iterations = Some(count as u32);
+                    }
+                    spec.training_fraction = i.float_opt("training_fraction")?;
+                    if let (Some(per), Some(b), Some(n)) = (
+                        i.float_opt("iteration_budget")?,
+                        spec.budget_s,
+                        spec.iterations,
+                    ) {
+                        spec.training_fraction = Some((per * n as f64 / b).clamp(0.0, 1.0));
+                    }
+                    let o = &mut spec.params.octree;
+                    o.threshold = i.float_or("orth.threshold", o.threshold)?;
+                    o.decay = i.float_or("orth.decay", o.decay)?;
+                    o.min_depth = i.int_or("orth.min_depth", o.min_depth as i64)?.max(0) as u32;
+                    o.max_depth = i.int_or("orth.max_depth", o.max_depth as i64)?.max(0) as u32;
+                }
+                Ok(IntegratorSpec::Guided(spec))
+            }
             "path" | "volpath" => Ok(IntegratorSpec::Path(read(source, -1)?)),
             "direct" => {
                 let mut s = read(None, -1)?;

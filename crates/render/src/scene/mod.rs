@@ -3,7 +3,9 @@
 
 mod build;
 
-pub use build::{build_scene, BuildOptions, IntegratorSpec, LoadedScene, SamplerSpec, Strictness};
+pub use build::{
+    build_scene, BuildOptions, GuidedSpec, IntegratorSpec, LoadedScene, SamplerSpec, Strictness,
+};
 
 use crate::accel::{Accel, PrimHit};
 use crate::bsdf::Bsdf;

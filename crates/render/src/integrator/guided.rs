@@ -1,0 +1,406 @@
+//! Guided unidirectional path tracing (focal path guiding, Rath et al. 2023 §5): at every non-delta vertex
+//! a one-sample mixture of BSDF sampling and a learned [`GuidingDistribution`] proposes the next direction,
+//! next-event estimation is MIS-weighted against the mixture pdf, and the path's segments are recorded as
+//! training data for the next iteration.
+
+use super::{power_heuristic, FirstHitAovs, Integrator, PathSettings};
+use crate::bsdf::{Bsdf, BsdfContext};
+use crate::color::Rgb;
+use crate::ray::{offset_ray_origin, Ray};
+use crate::sampler::Sampler;
+use crate::scene::Scene;
+use focal_guiding::{GuidingDistribution, TrainingSegment};
+
+/// Roughness below which a path vertex counts as glossy (Ruppert et al. 2020, as the focal-guiding code):
+/// a glossy endpoint can form a virtual image, so the whole line through it is a focal candidate.
+pub const GLOSSY_ROUGHNESS: f32 = 0.3;
+
+/// How a guided path decides to terminate.
+///
+/// Mitsuba's throughput-based roulette kills exactly the low-throughput prefixes that guiding makes
+/// worthwhile: a guided direction through a pinhole has a tiny weight f·cos/p_mix with a huge radiance
+/// behind it, so it is killed with high probability, which undoes the gain (Rath et al.'s README; they use
+/// no roulette at all). But with no roulette, a closed room under an unlimited `max_depth` has paths of
+/// thousands of bounces. The default therefore survives with the product of the BSDF *albedos* along the
+/// path instead of the throughput: it terminates paths as fast as the path tracer does in expectation (the
+/// mean BSDF-sampling weight is the albedo), whatever the guide chose.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+pub enum Roulette {
+    /// No roulette (Rath et al.; set a `max_depth`).
+    Off,
+    /// Mitsuba's: survival min(0.95, max throughput · η²) from `rr_depth`.
+    Throughput,
+    /// Survival min(0.95, Π albedo · η²) from `rr_depth` (default).
+    Albedo,
+}
+
+impl Roulette {
+    /// Parses `off`, `throughput` or `albedo`.
+    pub fn parse(s: &str) -> Result<Self, String> {
+        match s {
+            "off" | "none" => Ok(Roulette::Off),
+            "throughput" | "mitsuba" => Ok(Roulette::Throughput),
+            "albedo" => Ok(Roulette::Albedo),
+            other => Err(format!(
+                "unknown Russian roulette mode '{other}' (off, throughput or albedo)"
+            )),
+        }
+    }
+}
+
+/// Settings of the guided path tracer.
+#[derive(Clone, Copy, Debug, serde::Serialize, serde::Deserialize)]
+pub struct GuidedSettings {
+    /// Depth, roulette start depth and emitter visibility, with the path tracer's meanings (its
+    /// `russian_roulette` flag is ignored: see `roulette`).
+    pub path: PathSettings,
+    /// The Russian roulette.
+    pub roulette: Roulette,
+    /// Also train on segments that escaped the scene, as half-lines clipped to the scene box (light
+    /// through a window from the sky). Rath et al. drop them; both guides benefit alike.
+    pub train_escaped: bool,
+    /// Probability of sampling the guide rather than the BSDF at a guided vertex (Rath: 0.5).
+    pub guide_fraction: f32,
+    /// Restrict guide sampling to the shading hemisphere at opaque (non-transmissive) BSDFs, if the
+    /// guide supports it (the GMM's truncated sampling); the octree ignores the hint.
+    pub hemisphere_hint: bool,
+}
+
+impl Default for GuidedSettings {
+    fn default() -> Self {
+        GuidedSettings {
+            path: PathSettings::default(),
+            roulette: Roulette::Albedo,
+            train_escaped: true,
+            guide_fraction: 0.5,
+            hemisphere_hint: true,
+        }
+    }
+}
+
+/// The guided path tracer for one iteration: `guide` is `None` in the unguided first iteration (the
+/// estimator is then exactly the path tracer without Russian roulette); `record` collects training
+/// segments.
+pub struct GuidedPathIntegrator<'g> {
+    /// Settings.
+    pub settings: GuidedSettings,
+    /// The guide of this iteration (read-only while rendering).
+    pub guide: Option<&'g dyn GuidingDistribution>,
+    /// Record training segments.
+    pub record: bool,
+}
+
+/// A recorded segment whose contribution is not known until the path ends.
+#[derive(Clone, Copy)]
+struct PendingSegment {
+    segment: TrainingSegment,
+    /// The path's estimate just before the segment was sampled: everything added later flows through it.
+    result_before: Rgb,
+}
+
+impl GuidedPathIntegrator<'_> {
+    /// The mixture pdf of direction `wo_world` at a guided vertex.
+    #[inline]
+    fn mixture_pdf(
+        &self,
+        guide: &dyn GuidingDistribution,
+        p_bsdf: f32,
+        x: glam::Vec3,
+        hint: Option<glam::Vec3>,
+        wo_world: glam::Vec3,
+    ) -> f32 {
+        let a = self.settings.guide_fraction;
+        a * guide.pdf(x, hint, wo_world) + (1.0 - a) * p_bsdf
+    }
+}
+
+impl Integrator for GuidedPathIntegrator<'_> {
+    fn li(
+        &self,
+        scene: &Scene,
+        mut ray: Ray,
+        sampler: &mut Sampler,
+        aovs: &mut FirstHitAovs,
+        training: &mut Vec<TrainingSegment>,
+    ) -> Rgb {
+        let s = &self.settings.path;
+        if s.max_depth == 0 {
+            return Rgb::ZERO;
+        }
+        let mut result = Rgb::ZERO;
+        let mut throughput = Rgb::ONE;
+        let mut eta = 1.0f32;
+        let mut albedo = 1.0f32;
+        let mut depth: u32 = 0;
+        let mut prev_p = ray.o;
+        // pdf of the last sampled direction (the mixture's at guided vertices), for emitter-hit MIS.
+        let mut prev_pdf = 1.0f32;
+        let mut prev_delta = true;
+        let mut pending: Vec<PendingSegment> = Vec::new();
+
+        loop {
+            let si = scene.intersect(&ray);
+            let visible = !(s.hide_emitters && depth == 0);
+            let Some(si) = si else {
+                if let Some(env) = scene.environment {
+                    if visible {
+                        let le = scene.emitters[env as usize].eval_environment(ray.d);
+                        let mis = if prev_delta {
+                            1.0
+                        } else {
+                            power_heuristic(prev_pdf, scene.pdf_emitter_direction_env(ray.d))
+                        };
+                        result += throughput * le * mis;
+                    }
+                }
+                if self.settings.train_escaped {
+                    if let Some(last) = pending.last_mut() {
+                        if last.segment.distance < 0.0 {
+                            last.segment.distance = f32::INFINITY;
+                        }
+                    }
+                }
+                break;
+            };
+            let bsdf = &scene.bsdfs[scene.shapes[si.shape as usize].bsdf as usize];
+            if let Some(last) = pending.last_mut() {
+                if last.segment.distance < 0.0 {
+                    last.segment.distance = si.t;
+                    last.segment.glossy_endpoint = bsdf.min_roughness() < GLOSSY_ROUGHNESS;
+                }
+            }
+
+            if let Some(e) = scene.shapes[si.shape as usize].emitter {
+                let le = scene.emitters[e as usize].eval_area(si.to_local(-ray.d).z);
+                if visible && le != Rgb::ZERO {
+                    let mis = if prev_delta {
+                        1.0
+                    } else {
+                        power_heuristic(prev_pdf, scene.pdf_emitter_direction_area(prev_p, &si))
+                    };
+                    result += throughput * le * mis;
+                }
+            }
+            let ctx = BsdfContext { uv: si.uv };
+            if depth == 0 {
+                aovs.albedo = bsdf.albedo(&ctx);
+                aovs.normal = si.sh_frame.n;
+                aovs.depth = si.t;
+            }
+            if depth.saturating_add(1) >= s.max_depth {
+                break;
+            }
+
+            let wi = si.to_local(-ray.d);
+            let guide = self.guide.filter(|_| bsdf.has_smooth());
+            // The hemisphere the BSDF reflects into (shading normal on the incident side), for guides that
+            // can truncate their sampling to it.
+            let hint = (self.settings.hemisphere_hint && !bsdf.has_transmission())
+                .then(|| si.sh_frame.n * wi.z.signum());
+
+            // Next-event estimation, MIS-weighted against the full sampling mixture.
+            if bsdf.has_smooth() {
+                let u1 = sampler.next_1d();
+                let u2 = sampler.next_1d();
+                let u = sampler.next_2d();
+                if let Some((_, es)) = scene.sample_emitter_direction(si.p, u1, u2, u) {
+                    let wo = si.to_local(es.wi);
+                    let f = bsdf.eval(&ctx, wi, wo);
+                    if f != Rgb::ZERO {
+                        let o = offset_ray_origin(si.p, si.ng, es.wi);
+                        let t_max = if es.dist.is_finite() {
+                            (es.dist * (1.0 - 1e-4)).max(0.0)
+                        } else {
+                            f32::INFINITY
+                        };
+                        if !scene.occluded(&Ray::segment(o, es.wi, t_max)) {
+                            let mis = if es.delta {
+                                1.0
+                            } else {
+                                let p_bsdf = bsdf.pdf(&ctx, wi, wo);
+                                let p = match guide {
+                                    Some(g) => self.mixture_pdf(g, p_bsdf, si.p, hint, es.wi),
+                                    None => p_bsdf,
+                                };
+                                power_heuristic(es.pdf, p)
+                            };
+                            result += throughput * f * es.weight * mis;
+                        }
+                    }
+                }
+            }
+
+            // Direction sampling: BSDF, or the one-sample BSDF/guide mixture.
+            let Some(step) = sample_direction(self, bsdf, guide, &ctx, &si, wi, hint, sampler)
+            else {
+                break;
+            };
+            if self.record && !step.delta {
+                pending.push(PendingSegment {
+                    segment: TrainingSegment {
+                        origin: si.p,
+                        direction: step.wo_world,
+                        distance: -1.0,
+                        weight: 0.0,
+                        pdf: step.pdf,
+                        glossy_endpoint: false,
+                    },
+                    result_before: result,
+                });
+            }
+            throughput *= step.weight;
+            eta *= step.eta;
+            prev_p = si.p;
+            prev_pdf = step.pdf;
+            prev_delta = step.delta;
+            depth += 1;
+
+            let tmax = throughput.max_element();
+            if !(tmax > 0.0) || !tmax.is_finite() {
+                break;
+            }
+            if self.settings.roulette == Roulette::Albedo {
+                albedo *= bsdf.albedo(&ctx).max_element();
+            }
+            let survival = match self.settings.roulette {
+                Roulette::Off => 1.0,
+                Roulette::Throughput => tmax,
+                Roulette::Albedo => albedo,
+            };
+            if self.settings.roulette != Roulette::Off && depth >= s.rr_depth {
+                let q = (survival * eta * eta).min(0.95);
+                if sampler.next_1d() >= q {
+                    break;
+                }
+                throughput /= q;
+            }
+            ray = Ray::new(offset_ray_origin(si.p, si.ng, step.wo_world), step.wo_world);
+        }
+
+        if self.record {
+            for p in &pending {
+                // Segments whose ray escaped or was never traced carry no endpoint.
+                if p.segment.distance < 0.0 {
+                    continue;
+                }
+                let c = (result - p.result_before).element_sum() / 3.0;
+                if c > 0.0 && c.is_finite() {
+                    let mut seg = p.segment;
+                    seg.weight = c;
+                    training.push(seg);
+                }
+            }
+        }
+        result
+    }
+}
+
+/// A sampled continuation.
+struct Step {
+    wo_world: glam::Vec3,
+    /// f·cos / pdf, including the mixture's selection.
+    weight: Rgb,
+    /// The pdf the direction was drawn with (the mixture's, or the BSDF's at unguided vertices; for a
+    /// delta lobe the BSDF branch's probability, used only for MIS against nothing).
+    pdf: f32,
+    eta: f32,
+    delta: bool,
+}
+
+/// Samples the next direction at a vertex; `None` ends the path.
+#[allow(clippy::too_many_arguments)]
+#[inline]
+fn sample_direction(
+    integrator: &GuidedPathIntegrator<'_>,
+    bsdf: &Bsdf,
+    guide: Option<&dyn GuidingDistribution>,
+    ctx: &BsdfContext,
+    si: &crate::geometry::SurfaceInteraction,
+    wi: glam::Vec3,
+    hint: Option<glam::Vec3>,
+    sampler: &mut Sampler,
+) -> Option<Step> {
+    let u_select = sampler.next_1d();
+    let u1 = sampler.next_1d();
+    let u2 = sampler.next_2d();
+    let Some(guide) = guide else {
+        let bs = bsdf.sample(ctx, wi, u1, u2)?;
+        return Some(Step {
+            wo_world: si.to_world(bs.wo),
+            weight: bs.weight,
+            pdf: bs.pdf,
+            eta: bs.eta,
+            delta: bs.delta,
+        });
+    };
+    let alpha = integrator.settings.guide_fraction;
+    if u_select >= alpha {
+        // BSDF branch.
+        let bs = bsdf.sample(ctx, wi, u1, u2)?;
+        let wo_world = si.to_world(bs.wo);
+        if bs.delta {
+            return Some(Step {
+                wo_world,
+                weight: bs.weight / (1.0 - alpha),
+                pdf: (1.0 - alpha) * bs.pdf,
+                eta: bs.eta,
+                delta: true,
+            });
+        }
+        let f = bsdf.eval(ctx, wi, bs.wo);
+        let p_bsdf = bsdf.pdf(ctx, wi, bs.wo);
+        let pdf = integrator.mixture_pdf(guide, p_bsdf, si.p, hint, wo_world);
+        if !(pdf > 0.0) || f == Rgb::ZERO {
+            return None;
+        }
+        Some(Step {
+            wo_world,
+            weight: f / pdf,
+            pdf,
+            eta: bs.eta,
+            delta: false,
+        })
+    } else {
+        // Guide branch: the rescaled selection number is uniform again and drives the guide's choice.
+        let u0 = (u_select / alpha).min(1.0 - f32::EPSILON / 2.0);
+        let gs = guide.sample(si.p, hint, [u0, u2.x, u2.y])?;
+        let wo = si.to_local(gs.direction);
+        let f = bsdf.eval(ctx, wi, wo);
+        if f == Rgb::ZERO {
+            // Rath: a guided direction the BSDF does not scatter into ends the path (no retry).
+            return None;
+        }
+        let p_bsdf = bsdf.pdf(ctx, wi, wo);
+        let pdf = alpha * gs.pdf + (1.0 - alpha) * p_bsdf;
+        if !(pdf > 0.0) || !pdf.is_finite() {
+            return None;
+        }
+        let eta = if wo.z * wi.z < 0.0 {
+            transmission_eta(bsdf, wi)
+        } else {
+            1.0
+        };
+        Some(Step {
+            wo_world: gs.direction,
+            weight: f / pdf,
+            pdf,
+            eta,
+            delta: false,
+        })
+    }
+}
+
+/// The relative index of refraction for a guided transmission (only Russian roulette reads it, and only
+/// through eta², so an approximation is harmless; rough dielectrics are the only non-delta transmitters).
+fn transmission_eta(bsdf: &Bsdf, wi: glam::Vec3) -> f32 {
+    match bsdf {
+        Bsdf::RoughDielectric(b) => {
+            if wi.z > 0.0 {
+                b.eta
+            } else {
+                1.0 / b.eta
+            }
+        }
+        _ => 1.0,
+    }
+}

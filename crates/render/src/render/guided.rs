@@ -1,0 +1,318 @@
+//! The training schedule of a guided render: iterations of guided path tracing, each learning from the
+//! previous ones' segments, the first unguided, then a final render with the learned guide.
+//!
+//! Two budgets, as in the literature:
+//! - **samples** (Müller et al. 2017): iteration k renders 2^k spp; training continues while the budget
+//!   left after an iteration is at least twice that iteration (so the final render gets at least half
+//!   the budget, a little over half in practice), up to a maximum number of training iterations;
+//! - **time** (Rath et al. 2023): training gets a fraction of the total wall time, split into equal,
+//!   cumulative per-iteration deadlines (every iteration renders at least one pass); the final
+//!   iteration renders until the total budget is spent. Guide updates count against the budget.
+//!
+//! The guide is updated (record → update) between iterations only; during an iteration it is
+//! read-only. Training segments are handed to the guide after every pass in tile order, so a fixed seed
+//! and sample budget give the same learned model and image whatever the number of threads.
+
+use super::combine::{inverse_variance_weights, weighted_image, Combine, IterationImage};
+use super::{next_pass_spp, PassRunner, Progress, RenderSettings, RenderStats};
+use crate::camera::Camera;
+use crate::film::{FilmSpec, Image};
+use crate::integrator::{GuidedPathIntegrator, GuidedSettings};
+use crate::scene::Scene;
+use focal_guiding::{GuidingDistribution, UpdateContext, UpdateStats};
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::time::{Duration, Instant};
+
+/// Pixel samples per pass at most during training, bounding the memory of one pass's segments.
+pub const MAX_TRAINING_PASS_SAMPLES: u64 = 1 << 20;
+
+/// How long a guided render runs and how it is split into iterations.
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+pub enum TrainingBudget {
+    /// A total sample count per pixel, with doubling training iterations (at most `max_iterations`).
+    Samples {
+        /// Total samples per pixel, training included.
+        spp: u32,
+        /// Most training iterations.
+        max_iterations: u32,
+    },
+    /// A total wall-time budget.
+    Time {
+        /// Total seconds, training and guide updates included.
+        seconds: f64,
+        /// Share of the budget spent in training iterations.
+        training_fraction: f64,
+        /// Number of training iterations.
+        iterations: u32,
+        /// An upper bound on the total samples per pixel.
+        max_spp: u32,
+    },
+}
+
+/// Settings of a guided render.
+#[derive(Clone, Debug)]
+pub struct GuidedRenderSettings {
+    /// Seed, threads, AOVs and sampler (the `spp` and `time_limit` fields are ignored: see `budget`).
+    pub render: RenderSettings,
+    /// The integrator's settings.
+    pub integrator: GuidedSettings,
+    /// The budget and its split into iterations.
+    pub budget: TrainingBudget,
+    /// How the iterations' images are combined.
+    pub combine: Combine,
+    /// The guide is already trained (loaded from a file): no training iterations, the whole budget is
+    /// one guided iteration.
+    pub pretrained: bool,
+}
+
+/// What happened in one iteration, for the JSON record.
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct IterationStats {
+    /// 0 = the first, unguided iteration.
+    pub index: u32,
+    /// Rendered with a guide.
+    pub guided: bool,
+    /// Recorded training data (all but the final iteration).
+    pub training: bool,
+    /// Samples per pixel.
+    pub spp: u32,
+    /// Wall time of the rendering.
+    pub render_s: f64,
+    /// Pixel samples per second.
+    pub samples_per_s: f64,
+    /// Training segments recorded.
+    pub segments: u64,
+    /// Wall time the guide spent taking this iteration's segments (between passes).
+    pub record_s: f64,
+    /// The guide update that followed (training iterations only).
+    pub update: Option<UpdateStats>,
+    /// Weight of this iteration in the output image.
+    pub weight: f64,
+}
+
+/// The result of a guided render.
+pub struct GuidedOutput {
+    /// The combined image.
+    pub image: Image,
+    /// Totals over all iterations (`seconds` is the whole wall time, updates included).
+    pub stats: RenderStats,
+    /// Per-iteration statistics.
+    pub iterations: Vec<IterationStats>,
+}
+
+/// The spp of each training iteration under a sample budget, and the final iteration's.
+pub fn sample_schedule(spp: u32, max_iterations: u32) -> (Vec<u32>, u32) {
+    let mut training = Vec::new();
+    let mut used = 0u64;
+    let mut n = 1u64;
+    while (training.len() as u32) < max_iterations && used + 3 * n <= spp as u64 {
+        training.push(n as u32);
+        used += n;
+        n *= 2;
+    }
+    (training, spp - used as u32)
+}
+
+/// Runs a guided render: training iterations that update `guide`, then the final render. With no guide
+/// the whole budget is one unguided iteration (the path tracer without Russian roulette, unless enabled).
+pub fn render_guided(
+    scene: &Scene,
+    camera: &Camera,
+    spec: &FilmSpec,
+    mut guide: Option<&mut dyn GuidingDistribution>,
+    settings: &GuidedRenderSettings,
+    progress: &(dyn Fn(Progress) + Sync),
+) -> GuidedOutput {
+    let start = Instant::now();
+    let halves = settings.combine == Combine::InverseVariance;
+    let pixels = spec.crop_size.x as u64 * spec.crop_size.y as u64;
+    let max_pass_spp = (MAX_TRAINING_PASS_SAMPLES / pixels.max(1)).clamp(1, 32) as u32;
+
+    // Per iteration: its spp target (samples budget) or deadline (time budget).
+    enum Plan {
+        Spp(u32),
+        Until(Instant),
+    }
+    let (training_plans, final_plan, total_spp_hint): (Vec<Plan>, Plan, u64) = match settings.budget
+    {
+        TrainingBudget::Samples {
+            spp,
+            max_iterations,
+        } => {
+            let iters = if guide.is_some() && !settings.pretrained {
+                max_iterations
+            } else {
+                0
+            };
+            let (training, last) = sample_schedule(spp, iters);
+            (
+                training.into_iter().map(Plan::Spp).collect(),
+                Plan::Spp(last),
+                spp as u64,
+            )
+        }
+        TrainingBudget::Time {
+            seconds,
+            training_fraction,
+            iterations,
+            max_spp,
+        } => {
+            let iters = if guide.is_some() && !settings.pretrained {
+                iterations
+            } else {
+                0
+            };
+            let per = Duration::from_secs_f64(
+                seconds * training_fraction.clamp(0.0, 1.0) / iters.max(1) as f64,
+            );
+            (
+                (1..=iters).map(|k| Plan::Until(start + per * k)).collect(),
+                Plan::Until(start + Duration::from_secs_f64(seconds)),
+                max_spp as u64,
+            )
+        }
+    };
+    let max_total_spp = match settings.budget {
+        TrainingBudget::Samples { spp, .. } => spp,
+        TrainingBudget::Time { max_spp, .. } => max_spp,
+    };
+    let training_iterations = training_plans.len() as u32;
+    let done = AtomicU64::new(0);
+    let samples_total = pixels * total_spp_hint;
+    let on_tile = |n: u64| {
+        let d = done.fetch_add(n, Ordering::Relaxed) + n;
+        progress(Progress {
+            samples_done: d,
+            samples_total,
+            elapsed: start.elapsed(),
+        });
+    };
+
+    let mut images: Vec<IterationImage> = Vec::new();
+    let mut stats: Vec<IterationStats> = Vec::new();
+    let mut last_runner_threads = 0;
+    let mut rejected = 0u64;
+    let mut total_spp = 0u32;
+    let plans = training_plans
+        .into_iter()
+        .chain(std::iter::once(final_plan));
+    for (index, plan) in plans.enumerate() {
+        let index = index as u32;
+        let training = index < training_iterations;
+        let guided = (index > 0 || settings.pretrained) && guide.is_some();
+        let mut runner = PassRunner::new(scene, camera, spec, &settings.render, halves);
+        last_runner_threads = runner.threads();
+        let iter_start = Instant::now();
+        let mut segments = 0u64;
+        let mut record_s = 0.0;
+        let mut pass_spp = 1u32;
+        loop {
+            let spp_left = max_total_spp.saturating_sub(total_spp + runner.spp_done());
+            let count = match plan {
+                Plan::Spp(target) => pass_spp.min(target.saturating_sub(runner.spp_done())),
+                Plan::Until(_) => pass_spp,
+            }
+            .min(spp_left)
+            .min(if training { max_pass_spp } else { u32::MAX });
+            if count == 0 {
+                break;
+            }
+            let pass_start = Instant::now();
+            let batch = {
+                let integrator = GuidedPathIntegrator {
+                    settings: settings.integrator,
+                    guide: if guided { guide.as_deref() } else { None },
+                    record: training,
+                };
+                runner.run_pass(&integrator, count, &on_tile)
+            };
+            if training {
+                segments += batch.len() as u64;
+                if let Some(g) = guide.as_deref_mut() {
+                    let t = Instant::now();
+                    runner.install(|| g.record(&batch));
+                    record_s += t.elapsed().as_secs_f64();
+                }
+            }
+            pass_spp = match plan {
+                Plan::Spp(_) => (pass_spp * 2).min(32),
+                Plan::Until(deadline) => match next_pass_spp(pass_spp, count, pass_start, deadline)
+                {
+                    Some(n) => n,
+                    None => break,
+                },
+            };
+        }
+        let render_s = iter_start.elapsed().as_secs_f64() - record_s;
+        let spp = runner.spp_done();
+        total_spp += spp;
+        rejected += runner.rejected_samples();
+        let update = match (&mut guide, training) {
+            (Some(g), true) => {
+                let ctx = UpdateContext {
+                    iteration: index,
+                    training_iterations,
+                    final_build: index + 1 == training_iterations,
+                    threads: runner.threads(),
+                };
+                Some(runner.install(|| g.update(&ctx)))
+            }
+            _ => None,
+        };
+        if spp > 0 {
+            images.push(match runner.develop_halves() {
+                Some([a, b]) => IterationImage { a, b },
+                None => IterationImage {
+                    a: (runner.develop(), spp),
+                    b: (Image::new(0, 0), 0),
+                },
+            });
+        }
+        stats.push(IterationStats {
+            index,
+            guided,
+            training,
+            spp,
+            render_s,
+            samples_per_s: (pixels * spp as u64) as f64 / render_s.max(1e-9),
+            segments,
+            record_s,
+            update,
+            weight: 0.0,
+        });
+    }
+
+    let weights = match settings.combine {
+        Combine::InverseVariance => inverse_variance_weights(&images),
+        Combine::Last => {
+            let mut w = vec![0.0; images.len()];
+            if let Some(l) = w.last_mut() {
+                *l = 1.0;
+            }
+            w
+        }
+    };
+    // Iterations that rendered nothing have no image; weights follow the images in order.
+    let mut wi = weights.iter();
+    for s in stats.iter_mut().filter(|s| s.spp > 0) {
+        s.weight = *wi.next().unwrap_or(&0.0);
+    }
+    let image = if images.is_empty() {
+        Image::new(spec.crop_size.x, spec.crop_size.y)
+    } else {
+        weighted_image(&images, &weights)
+    };
+    let seconds = start.elapsed().as_secs_f64();
+    GuidedOutput {
+        image,
+        stats: RenderStats {
+            spp: total_spp,
+            seconds,
+            samples_per_second: (pixels * total_spp as u64) as f64 / seconds.max(1e-9),
+            passes: stats.len() as u32,
+            rejected_samples: rejected,
+            threads: last_runner_threads,
+        },
+        iterations: stats,
+    }
+}

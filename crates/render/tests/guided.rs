@@ -1,0 +1,211 @@
+//! The guided path tracer: unbiased against the path tracer, deterministic, and the octree learns the
+//! focal point of a camera obscura.
+
+mod common;
+
+use common::*;
+use focal_render::guide::{make_guide, GuideParams, GuidingMethod};
+use focal_render::guiding::octree::FocalOctreeGuide;
+use focal_render::guiding::GuidingDistribution;
+use focal_render::integrator::GuidedSettings;
+use focal_render::render::combine::Combine;
+use focal_render::render::guided::{
+    render_guided, sample_schedule, GuidedOutput, GuidedRenderSettings, TrainingBudget,
+};
+use focal_render::scene::LoadedScene;
+use glam::DVec3;
+
+fn guided_settings(spp: u32, seed: u64, threads: usize, combine: Combine) -> GuidedRenderSettings {
+    GuidedRenderSettings {
+        render: settings(spp, seed, threads),
+        integrator: GuidedSettings::default(),
+        budget: TrainingBudget::Samples {
+            spp,
+            max_iterations: 16,
+        },
+        combine,
+        pretrained: false,
+    }
+}
+
+fn render_with(
+    scene: &LoadedScene,
+    guide: Option<&mut dyn GuidingDistribution>,
+    s: &GuidedRenderSettings,
+) -> GuidedOutput {
+    render_guided(&scene.scene, &scene.camera, &scene.film, guide, s, &|_| {})
+}
+
+fn octree_for(scene: &LoadedScene) -> Box<dyn GuidingDistribution> {
+    make_guide(
+        GuidingMethod::Octree,
+        &scene.scene.bounds,
+        &GuideParams::default(),
+    )
+    .unwrap()
+    .unwrap()
+}
+
+/// Mean and standard error over seeds of a per-seed image mean.
+fn mean_se(samples: &[[f64; 3]]) -> ([f64; 3], [f64; 3]) {
+    let n = samples.len() as f64;
+    let mut m = [0.0; 3];
+    let mut se = [0.0; 3];
+    for c in 0..3 {
+        m[c] = samples.iter().map(|s| s[c]).sum::<f64>() / n;
+        let var = samples.iter().map(|s| (s[c] - m[c]).powi(2)).sum::<f64>() / (n - 1.0);
+        se[c] = (var / n).sqrt();
+    }
+    (m, se)
+}
+
+/// Guided (octree) and unguided renders agree in their image mean within 4 combined standard errors
+/// (plus 0.5 % for the filter's border effects, identical in both, so effectively slack).
+fn check_unbiased(name: &str, res: &str, spp: u32, seeds: u64, combine: Combine) {
+    let scene = load(&reference_scene(name), &[("res", res)]);
+    let pt: Vec<[f64; 3]> = (0..seeds)
+        .map(|s| {
+            render_loaded(&scene, &settings(spp, 500 + s, 0))
+                .image
+                .mean_rgb()
+        })
+        .collect();
+    let guided: Vec<[f64; 3]> = (0..seeds)
+        .map(|s| {
+            let mut guide = octree_for(&scene);
+            let out = render_with(
+                &scene,
+                Some(guide.as_mut()),
+                &guided_settings(spp, 900 + s, 0, combine),
+            );
+            assert!(all_finite(&out.image));
+            assert!(out.iterations.len() > 2, "training happened");
+            out.image.mean_rgb()
+        })
+        .collect();
+    let (mp, sp) = mean_se(&pt);
+    let (mg, sg) = mean_se(&guided);
+    for c in 0..3 {
+        let tol = 4.0 * (sp[c].powi(2) + sg[c].powi(2)).sqrt() + 0.005 * mp[c];
+        eprintln!(
+            "{name} {combine:?} channel {c}: pt {:.5} ± {:.5}, octree {:.5} ± {:.5}, tolerance {tol:.5}",
+            mp[c], sp[c], mg[c], sg[c]
+        );
+        assert!(
+            (mp[c] - mg[c]).abs() <= tol,
+            "{name}: guided mean {} differs from the path tracer's {} (tolerance {tol})",
+            mg[c],
+            mp[c]
+        );
+    }
+}
+
+#[test]
+fn guided_cornell_box_converges_to_the_path_tracers_mean() {
+    check_unbiased("cbox", "48", 64, 6, Combine::Last);
+}
+
+#[test]
+fn guided_caustic_converges_to_the_path_tracers_mean() {
+    check_unbiased("caustic", "48", 64, 6, Combine::Last);
+}
+
+#[test]
+fn inverse_variance_combination_keeps_the_mean() {
+    check_unbiased("caustic", "48", 64, 6, Combine::InverseVariance);
+}
+
+#[test]
+fn sample_schedule_doubles_and_leaves_the_final_iteration_the_most() {
+    assert_eq!(sample_schedule(64, 16), (vec![1, 2, 4, 8, 16], 33));
+    assert_eq!(sample_schedule(64, 2), (vec![1, 2], 61));
+    assert_eq!(sample_schedule(2, 16), (vec![], 2));
+    let (t, last) = sample_schedule(1000, 16);
+    assert_eq!(t.iter().sum::<u32>() + last, 1000);
+    assert!(last >= 2 * t.last().unwrap());
+}
+
+#[test]
+fn guided_renders_and_models_are_identical_for_any_thread_count() {
+    let scene = load(&reference_scene("caustic"), &[("res", "24")]);
+    let run = |threads: usize| {
+        let mut guide = octree_for(&scene);
+        let out = render_with(
+            &scene,
+            Some(guide.as_mut()),
+            &guided_settings(16, 7, threads, Combine::InverseVariance),
+        );
+        (out.image.rgb, guide.save())
+    };
+    let (img1, model1) = run(1);
+    let (img2, model2) = run(2);
+    assert!(img1 == img2, "images differ between 1 and 2 threads");
+    assert!(
+        model1 == model2,
+        "learned models differ between 1 and 2 threads"
+    );
+}
+
+#[test]
+fn octree_learns_the_camera_obscura_pinhole() {
+    // The bundled obscura: a 3 m room whose front wall has a 5 cm hole at (0, 1.2, 1.5).
+    let scene = load(
+        &std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenes/obscura.xml"),
+        &[("res", "48")],
+    );
+    let mut guide = FocalOctreeGuide::new(
+        focal_render::guide::guide_box(&scene.scene.bounds),
+        Default::default(),
+    )
+    .unwrap();
+    let out = render_with(
+        &scene,
+        Some(&mut guide),
+        &guided_settings(256, 3, 0, Combine::Last),
+    );
+    assert!(all_finite(&out.image));
+    let hole = DVec3::new(0.0, 1.3, 2.0);
+    let tree = guide.converging();
+    let mut rng = focal_render::sampler::Pcg32::new(1, 2);
+    let n = 20_000;
+    let near = (0..n)
+        .filter(|_| {
+            let u = [rng.next_f64(), rng.next_f64(), rng.next_f64()];
+            tree.sample_point(u).unwrap().distance(hole) < 0.15
+        })
+        .count();
+    let b = scene.scene.bounds;
+    let box_volume = ((b.max - b.min).as_dvec3()).element_product();
+    let ball_volume = 4.0 / 3.0 * std::f64::consts::PI * 0.15f64.powi(3);
+    let concentration = near as f64 / n as f64 / (ball_volume / box_volume);
+    // Guided directions from the middle of the back wall that pass through the 8 cm hole; a
+    // cosine-sampled direction does with probability ~1.3e-4.
+    let x = glam::Vec3::new(0.0, 1.3, -1.99);
+    let through = (0..n)
+        .filter(|_| {
+            let u = [rng.next_f32(), rng.next_f32(), rng.next_f32()];
+            let Some(s) = guide.sample(x, Some(glam::Vec3::Z), u) else {
+                return false;
+            };
+            if s.direction.z <= 0.0 {
+                return false;
+            }
+            let t = (2.0 - x.z) / s.direction.z;
+            let p = x + t * s.direction;
+            p.x.abs() < 0.04 && (p.y - 1.3).abs() < 0.04
+        })
+        .count();
+    let p_through = through as f64 / n as f64;
+    eprintln!(
+        "points within 15 cm of the pinhole: {near} of {n} ({concentration:.0}x a uniform density); \
+         guided directions from the back wall through the hole: {p_through:.4}"
+    );
+    assert!(
+        concentration > 100.0,
+        "the octree's density does not peak at the pinhole ({concentration:.1}x uniform)"
+    );
+    assert!(
+        p_through > 0.02,
+        "guided directions find the pinhole with probability {p_through:.4} only"
+    );
+}
