@@ -1,6 +1,7 @@
 //! `focal`: render Mitsuba scenes, benchmark the path tracer. Thin: all the work is in `focal-render`.
 
 mod bench;
+mod compare_cmd;
 mod metrics_cmd;
 mod render_cmd;
 
@@ -21,6 +22,8 @@ enum Command {
     Render(render_cmd::RenderArgs),
     /// Measure path-tracing throughput (samples/s) on the reference scenes.
     Bench(bench::BenchArgs),
+    /// Render a scene with several methods at equal time or spp and tabulate their errors.
+    Compare(compare_cmd::CompareArgs),
     /// Error metrics (relMSE, MSE, MAPE, SMAPE) of an image against a reference.
     Metrics(metrics_cmd::MetricsArgs),
 }
@@ -31,6 +34,7 @@ fn main() -> ExitCode {
         Command::Render(a) => render_cmd::run(a),
         Command::Bench(a) => bench::run(a),
         Command::Metrics(a) => metrics_cmd::run(a),
+        Command::Compare(a) => compare_cmd::run(a),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -15,7 +15,7 @@ use std::path::PathBuf;
 use std::time::Duration;
 
 /// Arguments of `focal render`.
-#[derive(Args, Debug)]
+#[derive(Args, Debug, Clone)]
 pub struct RenderArgs {
     /// The scene file (Mitsuba 0.6 or 3 XML).
     pub scene: PathBuf,

@@ -264,7 +264,7 @@ impl Builder<'_> {
             )
         });
         match name.as_str() {
-            "guided" | "focal_path" | "guided_path" => {
+            "guided" | "focal_path" => {
                 let path = read(source, -1)?;
                 let mut spec = GuidedSpec {
                     method: GuidingMethod::Octree,
