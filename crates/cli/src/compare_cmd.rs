@@ -7,7 +7,7 @@ use clap::Args;
 use focal_render::color::srgb_to_linear;
 use focal_render::film::Image;
 use focal_render::metrics::{image_errors, per_pixel_errors, ImageErrors};
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 /// Arguments of `focal compare`.
 #[derive(Args, Debug)]
@@ -185,12 +185,16 @@ pub fn run(a: CompareArgs) -> Result<()> {
             mean / base
         );
     }
-    println!("(relMSE with epsilon {}; report in {})", a.epsilon, a.out.display());
+    println!(
+        "(relMSE with epsilon {}; report in {})",
+        a.epsilon,
+        a.out.display()
+    );
     Ok(())
 }
 
 /// A false-colour image of the per-pixel relMSE, log scale from 1e-4 (dark) to 10 (bright).
-fn write_error_image(image: &Image, reference: &Image, eps: f64, path: &PathBuf) -> Result<()> {
+fn write_error_image(image: &Image, reference: &Image, eps: f64, path: &Path) -> Result<()> {
     let [rel, ..] = per_pixel_errors(image, reference, eps).map_err(anyhow::Error::msg)?;
     let mut out = Image::new(image.width, image.height);
     for (o, e) in out.rgb.iter_mut().zip(&rel) {

@@ -11,7 +11,8 @@
 //! which is the expected relative squared error of iteration i. Iterations with fewer than two samples per
 //! pixel have no variance estimate and are left out, as are those whose weight 1/v_i is below
 //! [`MIN_RELATIVE_WEIGHT`] of the best (their guide was not good enough to matter); the result is
-//! Σ w_i I_i / Σ w_i. The weights come from the same samples, so the combination is consistent rather
+//! Σ w_i I_i / Σ w_i. The guided renderer leaves the unguided first iteration out whenever a guided one
+//! exists: its noise is heavy-tailed (rare paths through a pinhole), which the estimate misses. The weights come from the same samples, so the combination is consistent rather
 //! than exactly unbiased; `Combine::Last` is exactly unbiased.
 
 use crate::film::Image;

@@ -283,7 +283,35 @@ pub fn render_guided(
     }
 
     let weights = match settings.combine {
-        Combine::InverseVariance => inverse_variance_weights(&images),
+        Combine::InverseVariance => {
+            // An unguided iteration's heavy-tailed noise (the rare path through a pinhole) is exactly what
+            // its two-halves variance estimate misses, so it would get too much weight: once some
+            // iteration is guided, only guided iterations are combined.
+            let guided: Vec<bool> = stats
+                .iter()
+                .filter(|s| s.spp > 0)
+                .map(|s| s.guided)
+                .collect();
+            let any_guided = guided.iter().any(|&g| g);
+            let eligible: Vec<IterationImage> = images
+                .iter()
+                .zip(&guided)
+                .filter(|(_, &g)| g || !any_guided)
+                .map(|(i, _)| i.clone())
+                .collect();
+            let w = inverse_variance_weights(&eligible);
+            let mut it = w.into_iter();
+            guided
+                .iter()
+                .map(|&g| {
+                    if g || !any_guided {
+                        it.next().unwrap_or(0.0)
+                    } else {
+                        0.0
+                    }
+                })
+                .collect()
+        }
         Combine::Last => {
             let mut w = vec![0.0; images.len()];
             if let Some(l) = w.last_mut() {
