@@ -6,6 +6,7 @@ use anyhow::{bail, Context, Result};
 use clap::Args;
 use focal_render::color::srgb_to_linear;
 use focal_render::film::Image;
+use focal_render::render::guide_view::viridis;
 use focal_render::metrics::{image_errors, per_pixel_errors, ImageErrors};
 use std::path::{Path, PathBuf};
 
@@ -108,6 +109,7 @@ pub fn run(a: CompareArgs) -> Result<()> {
                     octree_threshold: None,
                     save_guide: None,
                     load_guide: None,
+                    guide_image: seed == 0 && method != "pt" && method != "none",
                 },
             };
             render_cmd::run(args).with_context(|| format!("rendering with {method}"))?;
@@ -199,23 +201,8 @@ fn write_error_image(image: &Image, reference: &Image, eps: f64, path: &Path) ->
     let mut out = Image::new(image.width, image.height);
     for (o, e) in out.rgb.iter_mut().zip(&rel) {
         let t = ((e.max(1e-12).log10() + 4.0) / 5.0).clamp(0.0, 1.0) as f32;
-        *o = colormap(t).map(srgb_to_linear);
+        *o = viridis(t).map(srgb_to_linear);
     }
     out.write_png(path, 0.0)
         .with_context(|| format!("writing {}", path.display()))
-}
-
-/// A perceptually ordered dark-blue → green → yellow map (viridis control points).
-fn colormap(t: f32) -> [f32; 3] {
-    const STOPS: [[f32; 3]; 5] = [
-        [0.267, 0.005, 0.329],
-        [0.230, 0.322, 0.546],
-        [0.128, 0.567, 0.551],
-        [0.369, 0.789, 0.383],
-        [0.993, 0.906, 0.144],
-    ];
-    let x = t.clamp(0.0, 1.0) * (STOPS.len() - 1) as f32;
-    let i = (x as usize).min(STOPS.len() - 2);
-    let f = x - i as f32;
-    std::array::from_fn(|c| STOPS[i][c] * (1.0 - f) + STOPS[i + 1][c] * f)
 }

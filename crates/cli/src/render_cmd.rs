@@ -6,6 +6,7 @@ use focal_render::guide::{load_guide, make_guide, GuideParams, GuidingMethod};
 use focal_render::integrator::{GuidedSettings, Roulette};
 use focal_render::load::{load_scene, make_integrator};
 use focal_render::render::combine::Combine;
+use focal_render::render::guide_view::{false_colour_log, guide_pdf_image};
 use focal_render::render::guided::{render_guided, GuidedRenderSettings, TrainingBudget};
 use focal_render::render::{render, RenderSettings};
 use focal_render::sampler::SamplerKind;
@@ -97,6 +98,9 @@ pub struct GuidingArgs {
     /// Use a guide trained earlier (--save-guide) and skip training.
     #[arg(long, value_name = "PATH")]
     pub load_guide: Option<PathBuf>,
+    /// Also write the guide's pdf seen from the camera: OUT.guide.exr and a false-colour OUT.guide.png.
+    #[arg(long)]
+    pub guide_image: bool,
 }
 
 /// Parses `-D name=value` arguments.
@@ -303,6 +307,16 @@ pub fn run(a: RenderArgs) -> Result<()> {
                 &gsettings,
                 &progress,
             );
+            if let (true, Some(guide)) = (g.guide_image, &guide) {
+                let pdf = guide_pdf_image(&loaded.camera, &loaded.film, guide.as_ref());
+                let exr = output.with_extension("guide.exr");
+                pdf.write_exr(&exr)
+                    .with_context(|| format!("writing {}", exr.display()))?;
+                let png = output.with_extension("guide.png");
+                false_colour_log(&pdf, 4.0)
+                    .write_png(&png, 0.0)
+                    .with_context(|| format!("writing {}", png.display()))?;
+            }
             if let (Some(p), Some(guide)) = (&g.save_guide, &guide) {
                 std::fs::write(p, guide.save())
                     .with_context(|| format!("writing {}", p.display()))?;

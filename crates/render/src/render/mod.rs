@@ -5,6 +5,7 @@
 //! and sample count give a bit-identical image whatever the number of threads.
 
 pub mod combine;
+pub mod guide_view;
 pub mod guided;
 
 use crate::camera::Camera;

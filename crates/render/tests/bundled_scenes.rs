@@ -1,0 +1,69 @@
+//! Every scene bundled in `scenes/` loads and renders: a few samples per pixel at a small resolution give
+//! a finite image with a positive mean.
+
+mod common;
+
+use common::*;
+use std::path::PathBuf;
+
+fn bundled(name: &str) -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+        .join("../../scenes")
+        .join(name)
+}
+
+fn renders(name: &str) {
+    let scene = load(&bundled(name), &[("res", "24")]);
+    let out = render_loaded(&scene, &settings(4, 1, 0));
+    assert!(all_finite(&out.image), "{name}: non-finite pixels");
+    let mean = out.image.mean_rgb();
+    assert!(
+        mean.iter().all(|&m| m > 0.0 && m.is_finite()),
+        "{name}: implausible mean {mean:?}"
+    );
+}
+
+#[test]
+fn cornell_box_renders() {
+    renders("cbox.xml");
+}
+
+#[test]
+fn camera_obscura_renders() {
+    renders("obscura.xml");
+}
+
+#[test]
+fn door_gap_renders() {
+    renders("door_gap.xml");
+}
+
+#[test]
+fn shaded_lights_render() {
+    renders("shaded_lights.xml");
+}
+
+#[test]
+fn lens_focus_renders() {
+    renders("lens_focus.xml");
+}
+
+#[test]
+fn every_bundled_scene_is_tested() {
+    let mut names: Vec<String> = std::fs::read_dir(bundled(""))
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .filter(|n| n.ends_with(".xml"))
+        .collect();
+    names.sort();
+    assert_eq!(
+        names,
+        [
+            "cbox.xml",
+            "door_gap.xml",
+            "lens_focus.xml",
+            "obscura.xml",
+            "shaded_lights.xml"
+        ]
+    );
+}
