@@ -6,8 +6,8 @@ use anyhow::{bail, Context, Result};
 use clap::Args;
 use focal_render::color::srgb_to_linear;
 use focal_render::film::Image;
-use focal_render::render::guide_view::viridis;
 use focal_render::metrics::{image_errors, per_pixel_errors, ImageErrors};
+use focal_render::render::guide_view::viridis;
 use std::path::{Path, PathBuf};
 
 /// Arguments of `focal compare`.
