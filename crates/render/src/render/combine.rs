@@ -9,7 +9,9 @@
 //!   v_i = mean_p [ mean_c (A_p − B_p)² · n_A n_B / n_i² ] / (pooled_p² + ε),   ε = 1e-2,
 //!
 //! which is the expected relative squared error of iteration i. Iterations with fewer than two samples per
-//! pixel have no variance estimate and are left out, as are those whose weight 1/v_i is below
+//! pixel have no variance estimate and are left out, as are those with under [`MIN_RELATIVE_SPP`] of the
+//! largest iteration's samples (heavy tails make their estimate too optimistic) and those whose weight
+//! 1/v_i is below
 //! [`MIN_RELATIVE_WEIGHT`] of the best (their guide was not good enough to matter); the result is
 //! Σ w_i I_i / Σ w_i. The guided renderer leaves the unguided first iteration out whenever a guided one
 //! exists: its noise is heavy-tailed (rare paths through a pinhole), which the estimate misses. The weights come from the same samples, so the combination is consistent rather
@@ -19,6 +21,10 @@ use crate::film::Image;
 
 /// Iterations whose inverse-variance weight is below this fraction of the largest are left out.
 pub const MIN_RELATIVE_WEIGHT: f64 = 0.05;
+/// Iterations with fewer samples per pixel than this fraction of the largest iteration's are left out:
+/// with few samples the variance of heavy-tailed noise is underestimated (the rare bright path is
+/// missing from both halves), which would give them far too much weight.
+pub const MIN_RELATIVE_SPP: f64 = 0.25;
 /// The ε of the relative variance (as in relMSE).
 pub const RELATIVE_EPSILON: f64 = 1e-2;
 
@@ -96,6 +102,16 @@ pub fn inverse_variance_weights(iterations: &[IterationImage]) -> Vec<f64> {
     }
     let pooled = pooled_image(iterations);
     let variances = relative_variances(iterations, &pooled);
+    let max_spp = iterations
+        .iter()
+        .map(IterationImage::spp)
+        .max()
+        .unwrap_or(0) as f64;
+    let variances: Vec<Option<f64>> = variances
+        .into_iter()
+        .zip(iterations)
+        .map(|(v, it)| v.filter(|_| it.spp() as f64 >= MIN_RELATIVE_SPP * max_spp))
+        .collect();
     for (w, v) in weights.iter_mut().zip(&variances) {
         *w = match v {
             Some(v) if *v > 0.0 => 1.0 / v,
