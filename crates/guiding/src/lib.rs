@@ -7,8 +7,10 @@
 //! iterations; sampling and pdf evaluation are read-only and thread-safe.
 
 mod distribution;
+pub mod gmm;
 pub mod octree;
 
 pub use distribution::{
     Aabb3, GuideSample, GuidingDistribution, TrainingSegment, UpdateContext, UpdateStats,
 };
+pub use gmm::{GmmConfig, GmmGuide};

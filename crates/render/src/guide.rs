@@ -2,7 +2,7 @@
 
 use crate::geometry::Aabb;
 use focal_guiding::octree::{FocalOctreeGuide, OctreeGuideConfig};
-use focal_guiding::{Aabb3, GuidingDistribution};
+use focal_guiding::{Aabb3, GmmConfig, GmmGuide, GuidingDistribution};
 
 /// Which guiding distribution a guided render learns.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
@@ -11,6 +11,8 @@ pub enum GuidingMethod {
     None,
     /// The adaptive density octree of Rath et al. 2023 (the baseline).
     Octree,
+    /// The spatial Gaussian mixture fitted by EM on rays (our method).
+    Gmm,
 }
 
 impl GuidingMethod {
@@ -19,7 +21,10 @@ impl GuidingMethod {
         match name {
             "none" | "pt" => Ok(GuidingMethod::None),
             "octree" => Ok(GuidingMethod::Octree),
-            other => Err(format!("unknown guiding method '{other}' (none or octree)")),
+            "gmm" => Ok(GuidingMethod::Gmm),
+            other => Err(format!(
+                "unknown guiding method '{other}' (none, octree or gmm)"
+            )),
         }
     }
 
@@ -28,6 +33,7 @@ impl GuidingMethod {
         match self {
             GuidingMethod::None => "none",
             GuidingMethod::Octree => "octree",
+            GuidingMethod::Gmm => "gmm",
         }
     }
 }
@@ -37,6 +43,8 @@ impl GuidingMethod {
 pub struct GuideParams {
     /// The octree's `orth.*` settings.
     pub octree: OctreeGuideConfig,
+    /// The mixture's settings.
+    pub gmm: GmmConfig,
 }
 
 /// The box a guide covers: the scene bounds (geometry, sensor, emitters), as Rath et al.
@@ -59,6 +67,7 @@ pub fn make_guide(
             guide_box(bounds),
             params.octree,
         )?)),
+        GuidingMethod::Gmm => Some(Box::new(GmmGuide::new(guide_box(bounds), params.gmm)?)),
     })
 }
 
@@ -66,6 +75,11 @@ pub fn make_guide(
 pub fn load_guide(bytes: &[u8]) -> Result<Box<dyn GuidingDistribution>, String> {
     match FocalOctreeGuide::load(bytes) {
         Ok(g) => Ok(Box::new(g)),
-        Err(e) => Err(format!("not a saved guide: {e}")),
+        Err(octree) => match GmmGuide::load(bytes) {
+            Ok(g) => Ok(Box::new(g)),
+            Err(gmm) => Err(format!(
+                "not a saved guide (as an octree: {octree}; as a mixture: {gmm})"
+            )),
+        },
     }
 }

@@ -1,0 +1,847 @@
+//! [`GmmGuide`]: focal path guiding with a converging and a diverging spatial Gaussian mixture
+//! (design note `gmm-focal-guiding.md`), implementing [`GuidingDistribution`].
+//!
+//! Internally everything lives in a *unit frame*: y_u = (y − c)/h with c the box centre and h half its
+//! largest extent, so the box fits in [−1, 1]³. The directional pdf is invariant under this isotropic
+//! change of units (t² dt dω scales like the density's 1/h³), and the EM statistics, the prior and the
+//! covariance floor get scene-independent magnitudes.
+
+use std::time::Instant;
+
+use glam::{DVec3, Vec3};
+use serde::{Deserialize, Serialize};
+
+use super::em::{fit, FitParams, FitReport, SuffStats};
+use super::gaussian::Gaussian3;
+use super::mixture::{Mixture, MAX_COMPONENTS};
+use super::rays::{
+    clip_to_box, generate_points, mix64, NarrowingTable, PointSampling, TrainingRay,
+};
+use super::special::open_unit;
+use super::sym3::Sym3;
+use super::truncated::sample_half_space;
+use crate::{Aabb3, GuideSample, GuidingDistribution, TrainingSegment, UpdateContext, UpdateStats};
+
+/// The decay of the online statistics once iterative narrowing starts (as the octree's).
+pub const NARROWING_DECAY: f64 = 0.25;
+/// With a `normal`, a hemisphere holding less guide mass than this is treated as empty (`sample`
+/// returns `None`, `pdf` 0): guiding into it would only chase the mixture's far tails.
+pub const MIN_HEMISPHERE_MASS: f64 = 1e-6;
+/// Magic prefix of [`GmmGuide::save`] snapshots.
+const SNAPSHOT_MAGIC: [u8; 8] = *b"FOCALGMM";
+/// Version of the snapshot layout.
+const SNAPSHOT_VERSION: u32 = 1;
+
+/// User parameters of the GMM guide (fields missing from a serialised config take their defaults).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default)]
+pub struct GmmConfig {
+    /// Components of each mixture's k-means++ initialisation.
+    pub k_init: usize,
+    /// Lower bound on components for merges and prunes.
+    pub k_min: usize,
+    /// Upper bound on components for splits (≤ [`MAX_COMPONENTS`]).
+    pub k_max: usize,
+    /// EM iterations per update (structure changes happen in the middle one).
+    pub em_iterations: u32,
+    /// Points drawn along each training ray.
+    pub points_per_ray: u32,
+    /// Points per mixture and update; beyond it a deterministic stride subset of the rays is used, with
+    /// correspondingly larger weights (bounds the fit time).
+    pub max_points: usize,
+    /// Rays buffered per mixture between updates; beyond it the buffer is thinned to every other ray with
+    /// doubled weight (bounds memory).
+    pub max_rays: usize,
+    /// Decay of the online statistics per update before iterative narrowing (afterwards 0.25).
+    pub decay: f64,
+    /// Use iterative narrowing from iteration ⌊2N/3⌋ (the continuous RAY_WEIGHTED splat).
+    pub narrowing: bool,
+    /// Prior covariance scale σ₀ as a fraction of the box diagonal.
+    pub prior_sigma: f64,
+    /// Prior pseudo-weight as a fraction of each mixture's total training weight.
+    pub prior_strength: f64,
+    /// Floor on each mixture weight π_k.
+    pub weight_floor: f64,
+    /// Split a component when its weight share × binned KL divergence from its data exceeds this (nats).
+    pub split_threshold: f64,
+    /// Merge two components whose Bhattacharyya distance is below this.
+    pub merge_threshold: f64,
+    /// Prune components holding less than this share of their mixture's weight.
+    pub prune_share: f64,
+    /// Seed of the initialisation and of the points' stratification jitter.
+    pub seed: u64,
+}
+
+impl Default for GmmConfig {
+    fn default() -> Self {
+        Self {
+            k_init: 8,
+            k_min: 1,
+            k_max: 64,
+            em_iterations: 4,
+            points_per_ray: 2,
+            max_points: 1 << 20,
+            max_rays: 2_000_000,
+            decay: 0.5,
+            narrowing: true,
+            prior_sigma: 1e-3,
+            prior_strength: 1e-4,
+            weight_floor: 1e-4,
+            split_threshold: 2e-3,
+            merge_threshold: 0.05,
+            prune_share: 1e-5,
+            seed: 0x6d6d_f0ca,
+        }
+    }
+}
+
+impl GmmConfig {
+    /// Checks every parameter's range.
+    pub fn validate(&self) -> Result<(), String> {
+        let fail = |what: &str| Err(format!("invalid GMM guide config: {what} ({self:?})"));
+        if !(1 <= self.k_min && self.k_min <= self.k_max && self.k_max <= MAX_COMPONENTS) {
+            return fail("need 1 <= k_min <= k_max <= 128");
+        }
+        if !(1 <= self.k_init && self.k_init <= self.k_max) {
+            return fail("need 1 <= k_init <= k_max");
+        }
+        if !(1..=100).contains(&self.em_iterations) {
+            return fail("em_iterations must lie in 1..=100");
+        }
+        if !(1..=256).contains(&self.points_per_ray) {
+            return fail("points_per_ray must lie in 1..=256");
+        }
+        if self.max_points == 0 || self.max_rays < 2 {
+            return fail("max_points must be positive and max_rays at least 2");
+        }
+        if !(0.0..=1.0).contains(&self.decay) {
+            return fail("decay must lie in [0, 1]");
+        }
+        if !(self.prior_sigma > 0.0 && self.prior_sigma < 1.0) {
+            return fail("prior_sigma must lie in (0, 1)");
+        }
+        if !(self.prior_strength >= 0.0 && self.prior_strength <= 1.0) {
+            return fail("prior_strength must lie in [0, 1]");
+        }
+        if !(self.weight_floor >= 0.0 && self.weight_floor * (self.k_max as f64) < 0.5) {
+            return fail("weight_floor must be >= 0 and below 0.5 / k_max");
+        }
+        if !(self.split_threshold >= 0.0) || !(self.merge_threshold >= 0.0) {
+            return fail("split and merge thresholds must be >= 0 (infinity disables splits)");
+        }
+        if !(0.0..1.0).contains(&self.prune_share) {
+            return fail("prune_share must lie in [0, 1)");
+        }
+        Ok(())
+    }
+}
+
+/// One mixture and the online statistics it was fitted from (unit frame).
+#[derive(Clone, Debug, Default, PartialEq)]
+struct MixtureState {
+    mixture: Mixture,
+    stats: Vec<SuffStats>,
+}
+
+impl MixtureState {
+    fn weight(&self) -> f64 {
+        self.stats.iter().map(|s| s.weight).sum()
+    }
+}
+
+/// Training rays recorded since the last update.
+#[derive(Clone, Debug, Default)]
+struct Pending {
+    conv: Vec<TrainingRay>,
+    div: Vec<TrainingRay>,
+    segments: u64,
+    dropped: u64,
+    empty: u64,
+    thinned: u64,
+}
+
+/// Focal path guiding with two spatial Gaussian mixtures: a direction is drawn towards a point
+/// y ~ ρ_conv (probability 1 − p_div) or away from a point y ~ ρ_div (probability p_div), and its pdf
+/// (1 − p_div)·p_conv(x, ω) + p_div·p_div(x, −ω) is the exact half-line integral (design note). With a
+/// `normal` both sampling and pdf are truncated to the hemisphere around it. Untrained (before the first
+/// update that saw data) it samples nothing and has pdf 0.
+#[derive(Clone, Debug)]
+pub struct GmmGuide {
+    aabb: Aabb3,
+    center: DVec3,
+    scale: f64,
+    config: GmmConfig,
+    conv: MixtureState,
+    div: MixtureState,
+    p_div: f64,
+    updates: u32,
+    pending: Pending,
+}
+
+impl GmmGuide {
+    /// An untrained guide over the scene box `aabb` (axes of zero extent are padded as the octree does).
+    pub fn new(aabb: Aabb3, config: GmmConfig) -> Result<Self, String> {
+        config.validate()?;
+        let aabb = padded_aabb(aabb)?;
+        let (center, scale) = unit_frame(aabb);
+        Ok(Self {
+            aabb,
+            center,
+            scale,
+            config,
+            conv: MixtureState::default(),
+            div: MixtureState::default(),
+            p_div: 0.0,
+            updates: 0,
+            pending: Pending::default(),
+        })
+    }
+
+    /// A guide with given world-space mixtures (e.g. for tests or imported models). Each component's
+    /// online statistics start as its moments with total weight 1 per mixture.
+    pub fn from_mixtures(
+        aabb: Aabb3,
+        config: GmmConfig,
+        converging: &Mixture,
+        diverging: &Mixture,
+        p_div: f64,
+    ) -> Result<Self, String> {
+        let mut guide = Self::new(aabb, config)?;
+        if !(0.0..=1.0).contains(&p_div) {
+            return Err(format!("p_div must lie in [0, 1], got {p_div}"));
+        }
+        for (state, mixture) in [(&mut guide.conv, converging), (&mut guide.div, diverging)] {
+            if mixture.len() > config.k_max {
+                return Err(format!(
+                    "a mixture of {} components exceeds k_max = {}",
+                    mixture.len(),
+                    config.k_max
+                ));
+            }
+            let unit = mixture.transformed(guide.center, guide.scale)?;
+            state.stats = unit
+                .weights()
+                .iter()
+                .zip(unit.components())
+                .map(|(w, g)| SuffStats {
+                    weight: *w,
+                    mean: g.mean(),
+                    scatter: g.covariance() * *w,
+                })
+                .collect();
+            state.mixture = unit;
+        }
+        guide.p_div = p_div;
+        Ok(guide)
+    }
+
+    /// The (padded) scene box.
+    pub fn aabb(&self) -> Aabb3 {
+        self.aabb
+    }
+
+    /// The unit frame: y_unit = (y − centre) / scale.
+    pub fn unit_frame(&self) -> (DVec3, f64) {
+        (self.center, self.scale)
+    }
+
+    /// The user parameters.
+    pub fn config(&self) -> GmmConfig {
+        self.config
+    }
+
+    /// Probability of sampling the diverging mixture: W_div / (W_conv + W_div) of the last update.
+    pub fn p_div(&self) -> f64 {
+        self.p_div
+    }
+
+    /// True once a mixture holds components (sampling and pdf are active).
+    pub fn is_trained(&self) -> bool {
+        !self.conv.mixture.is_empty() || !self.div.mixture.is_empty()
+    }
+
+    /// Updates applied so far.
+    pub fn updates(&self) -> u32 {
+        self.updates
+    }
+
+    /// The converging mixture in world coordinates (for visualisation).
+    pub fn converging(&self) -> Mixture {
+        self.world(&self.conv.mixture)
+    }
+
+    /// The diverging mixture in world coordinates (for visualisation).
+    pub fn diverging(&self) -> Mixture {
+        self.world(&self.div.mixture)
+    }
+
+    /// The converging mixture in the unit frame, as sampled.
+    pub fn converging_unit(&self) -> &Mixture {
+        &self.conv.mixture
+    }
+
+    /// The diverging mixture in the unit frame, as sampled.
+    pub fn diverging_unit(&self) -> &Mixture {
+        &self.div.mixture
+    }
+
+    /// The online statistics behind (converging, diverging) mixtures, unit frame.
+    pub fn statistics(&self) -> (&[SuffStats], &[SuffStats]) {
+        (&self.conv.stats, &self.div.stats)
+    }
+
+    /// Buffered (converging, diverging) training rays waiting for the next update.
+    pub fn pending_rays(&self) -> (usize, usize) {
+        (self.pending.conv.len(), self.pending.div.len())
+    }
+
+    fn world(&self, m: &Mixture) -> Mixture {
+        m.untransformed(self.center, self.scale)
+            .unwrap_or_else(|_| Mixture::empty())
+    }
+
+    #[inline]
+    fn to_unit(&self, x: Vec3) -> DVec3 {
+        (x.as_dvec3() - self.center) / self.scale
+    }
+
+    /// The untruncated pdf of unit `w` at unit-frame `x`.
+    #[inline]
+    fn full_pdf(&self, x: DVec3, w: DVec3) -> f64 {
+        let q = self.p_div;
+        let mut p = 0.0;
+        if q < 1.0 {
+            p += (1.0 - q) * self.conv.mixture.directional_pdf(x, w);
+        }
+        if q > 0.0 {
+            p += q * self.div.mixture.directional_pdf(x, -w);
+        }
+        p
+    }
+
+    /// Fills `masses` with every component's share π_kΦ_k (converging, first half) or π_k(1 − Φ_k)
+    /// (diverging, second half) of the hemisphere above (x, n), and returns
+    /// Z = (1 − p_div)·Σ_conv + p_div·Σ_div.
+    #[inline]
+    fn hemisphere_masses(&self, x: DVec3, n: DVec3, masses: &mut [f64; 2 * MAX_COMPONENTS]) -> f64 {
+        let q = self.p_div;
+        let (conv, div) = masses.split_at_mut(MAX_COMPONENTS);
+        let mut z = 0.0;
+        if q < 1.0 {
+            self.conv.mixture.half_space_masses(x, n, true, conv);
+            z += (1.0 - q) * conv[..self.conv.mixture.len()].iter().sum::<f64>();
+        }
+        if q > 0.0 {
+            self.div.mixture.half_space_masses(x, n, false, div);
+            z += q * div[..self.div.mixture.len()].iter().sum::<f64>();
+        }
+        z
+    }
+
+    /// The pdf in `f64` (what [`GuidingDistribution::pdf`] rounds to `f32`).
+    pub fn pdf_f64(&self, x: Vec3, normal: Option<Vec3>, d: Vec3) -> f64 {
+        if !self.is_trained() {
+            return 0.0;
+        }
+        let xu = self.to_unit(x);
+        let n = normal.and_then(|n| unit(n.as_dvec3()));
+        let z = match n {
+            Some(n) => self.hemisphere_masses(xu, n, &mut [0.0; 2 * MAX_COMPONENTS]),
+            None => 1.0,
+        };
+        self.pdf_given(xu, n, d, z)
+    }
+
+    /// The pdf at `d` from unit-frame `xu`, given the hemisphere mass `z` of the unit normal `n` (the
+    /// one computation `pdf` and `sample` share, so their values agree bit for bit).
+    #[inline]
+    fn pdf_given(&self, xu: DVec3, n: Option<DVec3>, d: Vec3, z: f64) -> f64 {
+        let Some(w) = unit(d.as_dvec3()) else {
+            return 0.0;
+        };
+        if !xu.is_finite() {
+            return 0.0;
+        }
+        match n {
+            None => self.full_pdf(xu, w),
+            Some(n) => {
+                if !(n.dot(w) > 0.0) || !(z >= MIN_HEMISPHERE_MASS) {
+                    return 0.0;
+                }
+                self.full_pdf(xu, w) / z
+            }
+        }
+    }
+
+    /// Samples a unit-frame direction (not yet rounded) from `x` (unit frame), with the hemisphere mass
+    /// Z of `normal` (1 without one).
+    fn sample_direction(
+        &self,
+        x: DVec3,
+        normal: Option<DVec3>,
+        u: [f32; 3],
+    ) -> Option<(DVec3, f64)> {
+        let u1 = open_unit(u[1] as f64);
+        let u2 = open_unit(u[2] as f64);
+        match normal {
+            None => {
+                let q = self.p_div;
+                let u0 = u[0] as f64;
+                let diverging = u0 < q;
+                let u0 = if diverging {
+                    u0 / q
+                } else {
+                    (u0 - q) / (1.0 - q)
+                };
+                let mixture = if diverging {
+                    &self.div.mixture
+                } else {
+                    &self.conv.mixture
+                };
+                let y = mixture.sample_point([u0.clamp(0.0, 1.0), u1, u2])?;
+                Some((if diverging { x - y } else { y - x }, 1.0))
+            }
+            Some(n) => {
+                let mut masses = [0.0f64; 2 * MAX_COMPONENTS];
+                let z = self.hemisphere_masses(x, n, &mut masses);
+                if !(z >= MIN_HEMISPHERE_MASS) {
+                    return None;
+                }
+                let q = self.p_div;
+                let (kc, kd) = (self.conv.mixture.len(), self.div.mixture.len());
+                let shares = masses[..kc].iter().map(|m| (1.0 - q) * m).chain(
+                    masses[MAX_COMPONENTS..MAX_COMPONENTS + kd]
+                        .iter()
+                        .map(|m| q * m),
+                );
+                let target = u[0] as f64 * z;
+                let mut acc = 0.0;
+                let mut chosen = None;
+                for (i, m) in shares.enumerate() {
+                    if m > 0.0 {
+                        chosen = Some((i, acc, m));
+                        if target < acc + m {
+                            break;
+                        }
+                        acc += m;
+                    }
+                }
+                let (i, before, m) = chosen?;
+                let u0 = open_unit((target - before) / m);
+                let dir = if i < kc {
+                    let g = &self.conv.mixture.components()[i];
+                    sample_half_space(g, x, n, true, [u0, u1, u2]) - x
+                } else {
+                    let g = &self.div.mixture.components()[i - kc];
+                    x - sample_half_space(g, x, n, false, [u0, u1, u2])
+                };
+                Some((dir, z))
+            }
+        }
+    }
+
+    /// Decodes a snapshot written by [`GuidingDistribution::save`].
+    pub fn load(bytes: &[u8]) -> Result<Self, String> {
+        let snapshot: Snapshot =
+            postcard::from_bytes(bytes).map_err(|e| format!("not a GMM guide snapshot: {e}"))?;
+        if snapshot.magic != SNAPSHOT_MAGIC {
+            return Err("not a GMM guide snapshot (bad magic)".into());
+        }
+        if snapshot.version != SNAPSHOT_VERSION {
+            return Err(format!(
+                "GMM guide snapshot version {} is not supported (expected {SNAPSHOT_VERSION})",
+                snapshot.version
+            ));
+        }
+        snapshot.config.validate()?;
+        let aabb = Aabb3 {
+            min: Vec3::from_array(snapshot.aabb_min),
+            max: Vec3::from_array(snapshot.aabb_max),
+        };
+        if padded_aabb(aabb)? != aabb {
+            return Err("GMM guide snapshot has a degenerate box".into());
+        }
+        if !(0.0..=1.0).contains(&snapshot.p_div) {
+            return Err(format!(
+                "GMM guide snapshot has an invalid p_div {}",
+                snapshot.p_div
+            ));
+        }
+        let (center, scale) = unit_frame(aabb);
+        Ok(Self {
+            aabb,
+            center,
+            scale,
+            config: snapshot.config,
+            conv: snapshot.conv.into_state(snapshot.config.k_max)?,
+            div: snapshot.div.into_state(snapshot.config.k_max)?,
+            p_div: snapshot.p_div,
+            updates: snapshot.updates,
+            pending: Pending::default(),
+        })
+    }
+
+    fn fit_params(&self, seed: u64) -> FitParams {
+        let c = &self.config;
+        let diagonal = ((self.aabb.max - self.aabb.min).as_dvec3() / self.scale).length();
+        let prior_sigma = c.prior_sigma * diagonal;
+        FitParams {
+            k_init: c.k_init,
+            k_min: c.k_min,
+            k_max: c.k_max,
+            em_iterations: c.em_iterations,
+            prior_sigma,
+            prior_strength: c.prior_strength,
+            floor_sigma: prior_sigma * 1e-2,
+            weight_floor: c.weight_floor,
+            split_threshold: c.split_threshold,
+            merge_threshold: c.merge_threshold,
+            prune_share: c.prune_share,
+            seed,
+        }
+    }
+
+    /// Clips one ray to the box and buffers it (thinning the buffer if it overflows).
+    fn push_ray(&mut self, diverging: bool, o: DVec3, d: DVec3, t_max: f64, c: f64, pdf: f64) {
+        let lo = (self.aabb.min.as_dvec3() - self.center) / self.scale;
+        let hi = (self.aabb.max.as_dvec3() - self.center) / self.scale;
+        let Some((t0, t1)) = clip_to_box(o, d, t_max, lo, hi) else {
+            self.pending.empty += 1;
+            return;
+        };
+        let ray = TrainingRay {
+            origin: o.as_vec3().to_array(),
+            direction: d.as_vec3().to_array(),
+            t0: t0 as f32,
+            t1: t1 as f32,
+            weight: c as f32,
+            pdf: pdf as f32,
+        };
+        if !(ray.t1 > ray.t0 && ray.weight > 0.0 && ray.weight.is_finite()) {
+            self.pending.empty += 1;
+            return;
+        }
+        let max_rays = self.config.max_rays;
+        let buffer = if diverging {
+            &mut self.pending.div
+        } else {
+            &mut self.pending.conv
+        };
+        buffer.push(ray);
+        if buffer.len() > max_rays {
+            thin(buffer);
+            self.pending.thinned += 1;
+        }
+    }
+}
+
+/// Keeps every other ray with doubled weight: the buffer's expected total weight is unchanged.
+fn thin(buffer: &mut Vec<TrainingRay>) {
+    let mut keep = 0;
+    for i in (0..buffer.len()).step_by(2) {
+        let mut ray = buffer[i];
+        ray.weight = (ray.weight * 2.0).min(f32::MAX);
+        buffer[keep] = ray;
+        keep += 1;
+    }
+    buffer.truncate(keep);
+}
+
+/// `v` / |v| if that is a finite unit vector.
+#[inline]
+fn unit(v: DVec3) -> Option<DVec3> {
+    let len = v.length();
+    (len > 0.0 && len.is_finite()).then(|| v / len)
+}
+
+impl GuidingDistribution for GmmGuide {
+    fn name(&self) -> &'static str {
+        "gmm"
+    }
+
+    /// Full sphere: `u[0]` picks the mixture (diverging with probability p_div) and, rescaled, the
+    /// component and then the first normal variate; `u[1]`, `u[2]` give the other two (inverse CDF).
+    /// With a normal: `u[0]` picks a component among both mixtures in proportion to its mass in the
+    /// hemisphere and, rescaled, the truncated normal variate along the normal.
+    fn sample(&self, x: Vec3, normal: Option<Vec3>, u: [f32; 3]) -> Option<GuideSample> {
+        if !self.is_trained() {
+            return None;
+        }
+        let xu = self.to_unit(x);
+        if !xu.is_finite() {
+            return None;
+        }
+        let n = normal.and_then(|n| unit(n.as_dvec3()));
+        let (dir, z) = self.sample_direction(xu, n, u)?;
+        let direction = unit(dir)?.as_vec3().normalize_or_zero();
+        if direction == Vec3::ZERO {
+            return None;
+        }
+        // Exactly `pdf(x, normal, direction)`, reusing the hemisphere mass.
+        let pdf = self.pdf_given(xu, n, direction, z) as f32;
+        (pdf > 0.0 && pdf.is_finite()).then_some(GuideSample { direction, pdf })
+    }
+
+    fn pdf(&self, x: Vec3, normal: Option<Vec3>, d: Vec3) -> f32 {
+        let p = self.pdf_f64(x, normal, d) as f32;
+        if p.is_finite() {
+            p
+        } else {
+            0.0
+        }
+    }
+
+    /// Clips and buffers the batch's rays (§3.3 of the octree note): the segment for a non-glossy
+    /// endpoint, the forward and backward half-lines for a glossy one. Segments with a non-finite or
+    /// negative weight, an invalid pdf or geometry are dropped, zero weights skipped. The mixtures are
+    /// untouched until `update`.
+    fn record(&mut self, segments: &[TrainingSegment]) {
+        for s in segments {
+            self.pending.segments += 1;
+            let c = s.weight as f64;
+            let pdf = s.pdf as f64;
+            if !c.is_finite() || c < 0.0 || !(pdf > 0.0 && pdf.is_finite()) {
+                self.pending.dropped += 1;
+                continue;
+            }
+            if c == 0.0 {
+                continue;
+            }
+            let o = self.to_unit(s.origin);
+            let Some(d) = unit(s.direction.as_dvec3()) else {
+                self.pending.dropped += 1;
+                continue;
+            };
+            if !o.is_finite() {
+                self.pending.dropped += 1;
+                continue;
+            }
+            if s.glossy_endpoint {
+                self.push_ray(false, o, d, f64::INFINITY, c, pdf);
+                self.push_ray(true, o, -d, f64::INFINITY, c, pdf);
+            } else {
+                let distance = s.distance as f64 / self.scale;
+                if !(distance >= 0.0) {
+                    self.pending.dropped += 1;
+                    continue;
+                }
+                self.push_ray(false, o, d, distance, c, pdf);
+            }
+        }
+    }
+
+    /// Draws points along the buffered rays (stratified uniform, or by iterative narrowing against the
+    /// mixtures the rays were rendered with from iteration ⌊2N/3⌋), runs stepwise MAP-EM on each mixture
+    /// with the decayed statistics of earlier updates (decay `config.decay`, 0.25 from narrowing), and sets
+    /// p_div = W_div / (W_conv + W_div). Runs on the caller's rayon pool (`ctx.threads` is not used:
+    /// the result is the same for any pool size); `ctx.final_build` changes nothing, since a mixture
+    /// has no pruning build.
+    fn update(&mut self, ctx: &UpdateContext) -> UpdateStats {
+        let start = Instant::now();
+        let narrowing_start = 2 * ctx.training_iterations / 3;
+        let narrowing_phase = ctx.iteration >= narrowing_start;
+        let decay = if narrowing_phase {
+            NARROWING_DECAY
+        } else {
+            self.config.decay
+        };
+        let pending = std::mem::take(&mut self.pending);
+        let per_ray = self.config.points_per_ray as usize;
+        let max_points = self.config.max_points;
+        let q = self.p_div;
+        let seed = mix64(self.config.seed ^ mix64(ctx.iteration as u64));
+        let narrow = narrowing_phase && self.config.narrowing;
+        let table = |m: &Mixture, selection: f64| {
+            (narrow && !m.is_empty()).then(|| NarrowingTable::new(m, selection))
+        };
+        let conv_table = table(&self.conv.mixture, 1.0 - q);
+        let div_table = table(&self.div.mixture, q);
+        let conv_sampling = conv_table
+            .as_ref()
+            .map_or(PointSampling::Uniform, PointSampling::Narrowing);
+        let div_sampling = div_table
+            .as_ref()
+            .map_or(PointSampling::Uniform, PointSampling::Narrowing);
+        let narrowed = conv_table.is_some() || div_table.is_some();
+        let conv_points = generate_points(&pending.conv, per_ray, max_points, conv_sampling, seed);
+        let div_points = generate_points(&pending.div, per_ray, max_points, div_sampling, !seed);
+        let points_seconds = start.elapsed().as_secs_f64();
+
+        let fit_start = Instant::now();
+        let fit_state = |state: &MixtureState, points, tag: u64| {
+            let params = self.fit_params(mix64(seed ^ tag));
+            let (mixture, stats, report) =
+                fit(&state.mixture, &state.stats, points, decay, &params);
+            (MixtureState { mixture, stats }, report)
+        };
+        let (conv, conv_report) = fit_state(&self.conv, &conv_points, 1);
+        let (div, div_report) = fit_state(&self.div, &div_points, 2);
+        self.conv = conv;
+        self.div = div;
+        let fit_seconds = fit_start.elapsed().as_secs_f64();
+
+        let (w_conv, w_div) = (self.conv.weight(), self.div.weight());
+        self.p_div = if self.conv.mixture.is_empty() {
+            if self.div.mixture.is_empty() {
+                0.0
+            } else {
+                1.0
+            }
+        } else if self.div.mixture.is_empty() {
+            0.0
+        } else if w_conv + w_div > 0.0 && (w_conv + w_div).is_finite() {
+            w_div / (w_conv + w_div)
+        } else {
+            0.5
+        };
+        self.updates += 1;
+
+        let (kc, kd) = (self.conv.mixture.len(), self.div.mixture.len());
+        let sum = |f: fn(&FitReport) -> u32| (f(&conv_report) + f(&div_report)) as f64;
+        let details = vec![
+            ("k".into(), (kc + kd) as f64),
+            ("k_conv".into(), kc as f64),
+            ("k_div".into(), kd as f64),
+            ("p_div".into(), self.p_div),
+            ("w_conv".into(), w_conv),
+            ("w_div".into(), w_div),
+            (
+                "rays".into(),
+                (pending.conv.len() + pending.div.len()) as f64,
+            ),
+            ("rays_conv".into(), pending.conv.len() as f64),
+            ("rays_div".into(), pending.div.len() as f64),
+            (
+                "points".into(),
+                (conv_points.len() + div_points.len()) as f64,
+            ),
+            ("points_conv".into(), conv_points.len() as f64),
+            ("points_div".into(), div_points.len() as f64),
+            ("em_iterations".into(), sum(|r| r.em_iterations)),
+            ("splits".into(), sum(|r| r.splits)),
+            ("merges".into(), sum(|r| r.merges)),
+            ("prunes".into(), sum(|r| r.prunes)),
+            ("loglik_conv".into(), conv_report.log_likelihood),
+            ("loglik_div".into(), div_report.log_likelihood),
+            ("narrowing".into(), narrowed as u8 as f64),
+            ("decay".into(), decay),
+            ("segments_dropped".into(), pending.dropped as f64),
+            ("rays_empty".into(), pending.empty as f64),
+            ("thinning_rounds".into(), pending.thinned as f64),
+            ("points_seconds".into(), points_seconds),
+            ("fit_seconds".into(), fit_seconds),
+        ];
+        UpdateStats {
+            segments: pending.segments,
+            model_size: (kc + kd) as u64,
+            seconds: start.elapsed().as_secs_f64(),
+            details,
+        }
+    }
+
+    fn save(&self) -> Vec<u8> {
+        let snapshot = Snapshot {
+            magic: SNAPSHOT_MAGIC,
+            version: SNAPSHOT_VERSION,
+            aabb_min: self.aabb.min.to_array(),
+            aabb_max: self.aabb.max.to_array(),
+            config: self.config,
+            p_div: self.p_div,
+            updates: self.updates,
+            conv: SavedMixture::of(&self.conv),
+            div: SavedMixture::of(&self.div),
+        };
+        postcard::to_stdvec(&snapshot).expect("serialising plain data cannot fail")
+    }
+}
+
+/// The versioned snapshot layout (mixtures in the unit frame).
+#[derive(Serialize, Deserialize)]
+struct Snapshot {
+    magic: [u8; 8],
+    version: u32,
+    aabb_min: [f32; 3],
+    aabb_max: [f32; 3],
+    config: GmmConfig,
+    p_div: f64,
+    updates: u32,
+    conv: SavedMixture,
+    div: SavedMixture,
+}
+
+/// One mixture in a snapshot, with its statistics so training can continue.
+#[derive(Serialize, Deserialize)]
+struct SavedMixture {
+    weights: Vec<f64>,
+    means: Vec<[f64; 3]>,
+    covariances: Vec<[f64; 6]>,
+    stats: Vec<SuffStats>,
+}
+
+impl SavedMixture {
+    fn of(state: &MixtureState) -> Self {
+        let m = &state.mixture;
+        Self {
+            weights: m.weights().to_vec(),
+            means: m.components().iter().map(|g| g.mean().to_array()).collect(),
+            covariances: m.components().iter().map(|g| g.covariance().0).collect(),
+            stats: state.stats.clone(),
+        }
+    }
+
+    fn into_state(self, k_max: usize) -> Result<MixtureState, String> {
+        let k = self.weights.len();
+        if self.means.len() != k || self.covariances.len() != k || self.stats.len() != k {
+            return Err("GMM guide snapshot has inconsistent mixture lengths".into());
+        }
+        if k > k_max {
+            return Err(format!(
+                "GMM guide snapshot mixture has {k} components, more than k_max = {k_max}"
+            ));
+        }
+        let components = self
+            .means
+            .iter()
+            .zip(&self.covariances)
+            .map(|(m, c)| Gaussian3::new(DVec3::from_array(*m), Sym3(*c)))
+            .collect::<Option<Vec<_>>>()
+            .ok_or("GMM guide snapshot has a non-positive-definite or non-finite component")?;
+        if !self.stats.iter().all(SuffStats::is_valid) {
+            return Err("GMM guide snapshot has invalid statistics".into());
+        }
+        let mixture = Mixture::from_normalized(self.weights, components)
+            .map_err(|e| format!("GMM guide snapshot: {e}"))?;
+        Ok(MixtureState {
+            mixture,
+            stats: self.stats,
+        })
+    }
+}
+
+/// Centre and scale (half the largest extent) of the unit frame.
+fn unit_frame(aabb: Aabb3) -> (DVec3, f64) {
+    let min = aabb.min.as_dvec3();
+    let max = aabb.max.as_dvec3();
+    ((min + max) * 0.5, (max - min).max_element() * 0.5)
+}
+
+/// Validates the scene box and pads axes of zero extent (as the octree guide does).
+fn padded_aabb(aabb: Aabb3) -> Result<Aabb3, String> {
+    if !aabb.min.is_finite() || !aabb.max.is_finite() || aabb.min.cmpgt(aabb.max).any() {
+        return Err(format!(
+            "GMM guide needs a finite non-empty box, got {:?}..{:?}",
+            aabb.min, aabb.max
+        ));
+    }
+    let extent = aabb.max - aabb.min;
+    let largest = extent.max_element();
+    let pad = if largest > 0.0 { largest * 1e-3 } else { 1.0 };
+    let mut out = aabb;
+    for axis in 0..3 {
+        if extent[axis] <= 0.0 {
+            out.min[axis] -= pad / 2.0;
+            out.max[axis] += pad / 2.0;
+        }
+    }
+    Ok(out)
+}

@@ -1,0 +1,244 @@
+//! A weighted mixture of 3D Gaussians: the spatial density ρ(y) = Σ_k π_k N(y | μ_k, Σ_k), its exact
+//! directional pdf and point sampling.
+
+use glam::DVec3;
+
+use super::directional_pdf::half_line_kernel;
+use super::gaussian::Gaussian3;
+use super::special::{inv_norm_cdf, norm_cdf_branchless, open_unit};
+
+/// Most components one mixture may hold (bounds the stack buffers of the sampling and E-step loops).
+pub const MAX_COMPONENTS: usize = 128;
+/// Tolerance on Σπ = 1 for mixtures whose weights are taken as given (snapshots, M-step output).
+const WEIGHT_SUM_TOLERANCE: f64 = 1e-9;
+
+/// ρ(y) = Σ_k π_k N(y | μ_k, Σ_k) with Σπ_k = 1 (or no components at all: the empty mixture).
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Mixture {
+    weights: Vec<f64>,
+    components: Vec<Gaussian3>,
+    cdf: Vec<f64>,
+    soa: Soa,
+}
+
+/// Structure-of-arrays copies of the components for the vectorised pdf and hemisphere-mass loops,
+/// padded to a multiple of four with inert components of coefficient 0.
+#[derive(Clone, Debug, Default, PartialEq)]
+struct Soa {
+    /// π_k N₀_k.
+    coef: Vec<f64>,
+    /// π_k.
+    weight: Vec<f64>,
+    mean: [Vec<f64>; 3],
+    inv_chol: [Vec<f64>; 6],
+    chol: [Vec<f64>; 6],
+}
+
+impl Soa {
+    fn new(weights: &[f64], components: &[Gaussian3]) -> Self {
+        let padded = components.len().div_ceil(4) * 4;
+        let column = |f: &dyn Fn(&Gaussian3) -> f64, fill: f64| {
+            let mut v: Vec<f64> = components.iter().map(f).collect();
+            v.resize(padded, fill);
+            v
+        };
+        let identity = [1.0, 0.0, 1.0, 0.0, 0.0, 1.0];
+        let mut coef: Vec<f64> = weights
+            .iter()
+            .zip(components)
+            .map(|(w, g)| w * g.normalizer())
+            .collect();
+        coef.resize(padded, 0.0);
+        let mut weight = weights.to_vec();
+        weight.resize(padded, 0.0);
+        Self {
+            coef,
+            weight,
+            mean: std::array::from_fn(|a| column(&|g| g.mean()[a], 0.0)),
+            inv_chol: std::array::from_fn(|i| column(&|g| g.inverse_cholesky().0[i], identity[i])),
+            chol: std::array::from_fn(|i| column(&|g| g.cholesky().0[i], identity[i])),
+        }
+    }
+}
+
+impl Mixture {
+    /// The mixture with no components (ρ = 0).
+    pub fn empty() -> Self {
+        Self::default()
+    }
+
+    /// A mixture with weights proportional to `weights` (normalised here).
+    pub fn new(weights: &[f64], components: Vec<Gaussian3>) -> Result<Self, String> {
+        let sum: f64 = weights.iter().sum();
+        if !(sum > 0.0 && sum.is_finite()) {
+            return Err(format!(
+                "mixture weights must have a positive finite sum, got {sum}"
+            ));
+        }
+        let normalised: Vec<f64> = weights.iter().map(|w| w / sum).collect();
+        Self::from_normalized(normalised, components)
+    }
+
+    /// A mixture whose weights already sum to 1 (within 1e-9) and are used bit for bit.
+    pub fn from_normalized(weights: Vec<f64>, components: Vec<Gaussian3>) -> Result<Self, String> {
+        if weights.len() != components.len() {
+            return Err(format!(
+                "{} mixture weights for {} components",
+                weights.len(),
+                components.len()
+            ));
+        }
+        if components.len() > MAX_COMPONENTS {
+            return Err(format!(
+                "a mixture holds at most {MAX_COMPONENTS} components, got {}",
+                components.len()
+            ));
+        }
+        if let Some(w) = weights.iter().find(|w| !(**w > 0.0 && **w <= 1.0)) {
+            return Err(format!("mixture weight {w} is not in (0, 1]"));
+        }
+        let sum: f64 = weights.iter().sum();
+        if !components.is_empty() && (sum - 1.0).abs() > WEIGHT_SUM_TOLERANCE {
+            return Err(format!("mixture weights sum to {sum}, not 1"));
+        }
+        let mut acc = 0.0;
+        let cdf = weights
+            .iter()
+            .map(|w| {
+                acc += w;
+                acc
+            })
+            .collect();
+        let soa = Soa::new(&weights, &components);
+        Ok(Self {
+            weights,
+            components,
+            cdf,
+            soa,
+        })
+    }
+
+    /// Number of components.
+    pub fn len(&self) -> usize {
+        self.components.len()
+    }
+
+    /// True if the mixture has no components.
+    pub fn is_empty(&self) -> bool {
+        self.components.is_empty()
+    }
+
+    /// The weights π_k.
+    pub fn weights(&self) -> &[f64] {
+        &self.weights
+    }
+
+    /// The components.
+    pub fn components(&self) -> &[Gaussian3] {
+        &self.components
+    }
+
+    /// ρ(y).
+    pub fn density(&self, y: DVec3) -> f64 {
+        self.weights
+            .iter()
+            .zip(&self.components)
+            .map(|(w, g)| w * g.density(y))
+            .sum()
+    }
+
+    /// The exact solid-angle pdf of ω = normalize(y − x), y ~ ρ, at unit `omega`:
+    /// Σ_k π_k ∫₀^∞ N_k(x + tω) t² dt (vectorised over components, summed in four fixed lanes).
+    #[inline]
+    pub fn directional_pdf(&self, x: DVec3, omega: DVec3) -> f64 {
+        let s = &self.soa;
+        let n = s.coef.len();
+        let (mx, my, mz) = (&s.mean[0][..n], &s.mean[1][..n], &s.mean[2][..n]);
+        let [l0, l1, l2, l3, l4, l5] = &s.inv_chol;
+        let (l0, l1, l2, l3, l4, l5) = (&l0[..n], &l1[..n], &l2[..n], &l3[..n], &l4[..n], &l5[..n]);
+        let coef = &s.coef[..n];
+        let mut values = [0.0f64; MAX_COMPONENTS];
+        let values = &mut values[..n];
+        for k in 0..n {
+            let d = [mx[k] - x.x, my[k] - x.y, mz[k] - x.z];
+            let l = [l0[k], l1[k], l2[k], l3[k], l4[k], l5[k]];
+            values[k] = coef[k] * half_line_kernel(d, l, omega);
+        }
+        let mut lanes = [0.0f64; 4];
+        for block in values.chunks_exact(4) {
+            for (acc, v) in lanes.iter_mut().zip(block) {
+                *acc += v;
+            }
+        }
+        (lanes[0] + lanes[1]) + (lanes[2] + lanes[3])
+    }
+
+    /// Writes π_k·P_k(n·(y − x) > 0) (or < 0 if `upper` is false) for every component into `out`
+    /// (vectorised; `out` needs [`Mixture::len`] rounded up to a multiple of four entries).
+    #[inline]
+    pub fn half_space_masses(&self, x: DVec3, n: DVec3, upper: bool, out: &mut [f64]) {
+        let s = &self.soa;
+        let len = s.coef.len();
+        let out = &mut out[..len];
+        let (mx, my, mz) = (&s.mean[0][..len], &s.mean[1][..len], &s.mean[2][..len]);
+        let [c0, c1, c2, c3, c4, c5] = &s.chol;
+        let (c0, c1, c2) = (&c0[..len], &c1[..len], &c2[..len]);
+        let (c3, c4, c5) = (&c3[..len], &c4[..len], &c5[..len]);
+        let weights = &s.weight[..len];
+        let sign = if upper { 1.0 } else { -1.0 };
+        for k in 0..len {
+            let delta = n.x * (mx[k] - x.x) + n.y * (my[k] - x.y) + n.z * (mz[k] - x.z);
+            // |Lᵀn| = √(nᵀΣn).
+            let t0 = c0[k] * n.x + c1[k] * n.y + c3[k] * n.z;
+            let t1 = c2[k] * n.y + c4[k] * n.z;
+            let t2 = c5[k] * n.z;
+            let sigma = (t0 * t0 + t1 * t1 + t2 * t2).sqrt();
+            out[k] = weights[k] * norm_cdf_branchless(sign * delta / sigma);
+        }
+    }
+
+    /// Picks component k with probability π_k using `u` in [0, 1) and returns it with `u` rescaled to
+    /// [0, 1) within the chosen interval (reusable as a fresh uniform).
+    #[inline]
+    pub fn select(&self, u: f64) -> Option<(usize, f64)> {
+        let last = self.components.len().checked_sub(1)?;
+        let k = self.cdf[..last].partition_point(|&c| c <= u);
+        let lo = if k == 0 { 0.0 } else { self.cdf[k - 1] };
+        let rescaled = ((u - lo) / self.weights[k]).clamp(0.0, 1.0);
+        Some((k, rescaled))
+    }
+
+    /// A point y ~ ρ from three uniforms: `u[0]` selects the component and, rescaled, drives the first
+    /// normal variate; all three normal variates are inverse-CDF transforms.
+    pub fn sample_point(&self, u: [f64; 3]) -> Option<DVec3> {
+        let (k, u0) = self.select(u[0])?;
+        let z = DVec3::new(
+            inv_norm_cdf(open_unit(u0)),
+            inv_norm_cdf(open_unit(u[1])),
+            inv_norm_cdf(open_unit(u[2])),
+        );
+        Some(self.components[k].point(z))
+    }
+
+    /// The same density in other units: every component mapped by y ↦ (y − `center`)/`scale`.
+    pub fn transformed(&self, center: DVec3, scale: f64) -> Result<Self, String> {
+        let components = self
+            .components
+            .iter()
+            .map(|g| g.transformed(center, scale))
+            .collect::<Option<Vec<_>>>()
+            .ok_or("a component degenerates under the change of units")?;
+        Self::from_normalized(self.weights.clone(), components)
+    }
+
+    /// The inverse of [`Mixture::transformed`]: every component mapped by y ↦ `center` + `scale`·y.
+    pub fn untransformed(&self, center: DVec3, scale: f64) -> Result<Self, String> {
+        let components = self
+            .components
+            .iter()
+            .map(|g| g.untransformed(center, scale))
+            .collect::<Option<Vec<_>>>()
+            .ok_or("a component degenerates under the change of units")?;
+        Self::from_normalized(self.weights.clone(), components)
+    }
+}
