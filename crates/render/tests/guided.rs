@@ -36,14 +36,10 @@ fn render_with(
     render_guided(&scene.scene, &scene.camera, &scene.film, guide, s, &|_| {})
 }
 
-fn octree_for(scene: &LoadedScene) -> Box<dyn GuidingDistribution> {
-    make_guide(
-        GuidingMethod::Octree,
-        &scene.scene.bounds,
-        &GuideParams::default(),
-    )
-    .unwrap()
-    .unwrap()
+fn guide_for(method: GuidingMethod, scene: &LoadedScene) -> Box<dyn GuidingDistribution> {
+    make_guide(method, &scene.scene.bounds, &GuideParams::default())
+        .unwrap()
+        .unwrap()
 }
 
 /// Mean and standard error over seeds of a per-seed image mean.
@@ -59,9 +55,16 @@ fn mean_se(samples: &[[f64; 3]]) -> ([f64; 3], [f64; 3]) {
     (m, se)
 }
 
-/// Guided (octree) and unguided renders agree in their image mean within 4 combined standard errors
-/// (plus 0.5 % for the filter's border effects, identical in both, so effectively slack).
-fn check_unbiased(name: &str, res: &str, spp: u32, seeds: u64, combine: Combine) {
+/// Guided and unguided renders agree in their image mean within 4 combined standard errors (plus 0.5 %
+/// for the filter's border effects, identical in both, so effectively slack).
+fn check_unbiased(
+    method: GuidingMethod,
+    name: &str,
+    res: &str,
+    spp: u32,
+    seeds: u64,
+    combine: Combine,
+) {
     let scene = load(&reference_scene(name), &[("res", res)]);
     let pt: Vec<[f64; 3]> = (0..seeds)
         .map(|s| {
@@ -72,7 +75,7 @@ fn check_unbiased(name: &str, res: &str, spp: u32, seeds: u64, combine: Combine)
         .collect();
     let guided: Vec<[f64; 3]> = (0..seeds)
         .map(|s| {
-            let mut guide = octree_for(&scene);
+            let mut guide = guide_for(method, &scene);
             let out = render_with(
                 &scene,
                 Some(guide.as_mut()),
@@ -88,7 +91,7 @@ fn check_unbiased(name: &str, res: &str, spp: u32, seeds: u64, combine: Combine)
     for c in 0..3 {
         let tol = 4.0 * (sp[c].powi(2) + sg[c].powi(2)).sqrt() + 0.005 * mp[c];
         eprintln!(
-            "{name} {combine:?} channel {c}: pt {:.5} ± {:.5}, octree {:.5} ± {:.5}, tolerance {tol:.5}",
+            "{name} {method:?} {combine:?} channel {c}: pt {:.5} ± {:.5}, guided {:.5} ± {:.5}, tolerance {tol:.5}",
             mp[c], sp[c], mg[c], sg[c]
         );
         assert!(
@@ -101,18 +104,35 @@ fn check_unbiased(name: &str, res: &str, spp: u32, seeds: u64, combine: Combine)
 }
 
 #[test]
-fn guided_cornell_box_converges_to_the_path_tracers_mean() {
-    check_unbiased("cbox", "48", 64, 6, Combine::Last);
+fn octree_cornell_box_converges_to_the_path_tracers_mean() {
+    check_unbiased(GuidingMethod::Octree, "cbox", "48", 64, 6, Combine::Last);
 }
 
 #[test]
-fn guided_caustic_converges_to_the_path_tracers_mean() {
-    check_unbiased("caustic", "48", 64, 6, Combine::Last);
+fn octree_caustic_converges_to_the_path_tracers_mean() {
+    check_unbiased(GuidingMethod::Octree, "caustic", "48", 64, 6, Combine::Last);
+}
+
+#[test]
+fn gmm_cornell_box_converges_to_the_path_tracers_mean() {
+    check_unbiased(GuidingMethod::Gmm, "cbox", "48", 64, 6, Combine::Last);
+}
+
+#[test]
+fn gmm_caustic_converges_to_the_path_tracers_mean() {
+    check_unbiased(GuidingMethod::Gmm, "caustic", "48", 64, 6, Combine::Last);
 }
 
 #[test]
 fn inverse_variance_combination_keeps_the_mean() {
-    check_unbiased("caustic", "48", 64, 6, Combine::InverseVariance);
+    check_unbiased(
+        GuidingMethod::Gmm,
+        "caustic",
+        "48",
+        64,
+        6,
+        Combine::InverseVariance,
+    );
 }
 
 #[test]
@@ -129,57 +149,40 @@ fn sample_schedule_doubles_and_leaves_the_final_iteration_the_most() {
 fn guided_renders_and_models_are_identical_for_any_thread_count() {
     let scene = load(&reference_scene("caustic"), &[("res", "24")]);
     let run = |threads: usize| {
-        let mut guide = octree_for(&scene);
-        let out = render_with(
-            &scene,
-            Some(guide.as_mut()),
-            &guided_settings(16, 7, threads, Combine::InverseVariance),
-        );
-        (out.image.rgb, guide.save())
+        [GuidingMethod::Octree, GuidingMethod::Gmm].map(|method| {
+            let mut guide = guide_for(method, &scene);
+            let out = render_with(
+                &scene,
+                Some(guide.as_mut()),
+                &guided_settings(16, 7, threads, Combine::InverseVariance),
+            );
+            (out.image.rgb, guide.save())
+        })
     };
-    let (img1, model1) = run(1);
-    let (img2, model2) = run(2);
-    assert!(img1 == img2, "images differ between 1 and 2 threads");
-    assert!(
-        model1 == model2,
-        "learned models differ between 1 and 2 threads"
-    );
+    let one = run(1);
+    let two = run(2);
+    for (a, b) in one.iter().zip(&two) {
+        assert!(a.0 == b.0, "images differ between 1 and 2 threads");
+        assert!(a.1 == b.1, "learned models differ between 1 and 2 threads");
+    }
 }
 
-#[test]
-fn octree_learns_the_camera_obscura_pinhole() {
-    // The bundled obscura: a 3 m room whose front wall has a 5 cm hole at (0, 1.2, 1.5).
+/// Trains `method` on the bundled camera obscura and checks that guided directions from the back wall
+/// find its 8 cm pinhole at (0, 1.3, 2), which a cosine-sampled direction does with probability ~1.3e-4.
+fn learns_the_pinhole(method: GuidingMethod) -> f64 {
     let scene = load(
         &std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenes/obscura.xml"),
         &[("res", "48")],
     );
-    let mut guide = FocalOctreeGuide::new(
-        focal_render::guide::guide_box(&scene.scene.bounds),
-        Default::default(),
-    )
-    .unwrap();
+    let mut guide = guide_for(method, &scene);
     let out = render_with(
         &scene,
-        Some(&mut guide),
+        Some(guide.as_mut()),
         &guided_settings(256, 3, 0, Combine::Last),
     );
     assert!(all_finite(&out.image));
-    let hole = DVec3::new(0.0, 1.3, 2.0);
-    let tree = guide.converging();
     let mut rng = focal_render::sampler::Pcg32::new(1, 2);
     let n = 20_000;
-    let near = (0..n)
-        .filter(|_| {
-            let u = [rng.next_f64(), rng.next_f64(), rng.next_f64()];
-            tree.sample_point(u).unwrap().distance(hole) < 0.15
-        })
-        .count();
-    let b = scene.scene.bounds;
-    let box_volume = ((b.max - b.min).as_dvec3()).element_product();
-    let ball_volume = 4.0 / 3.0 * std::f64::consts::PI * 0.15f64.powi(3);
-    let concentration = near as f64 / n as f64 / (ball_volume / box_volume);
-    // Guided directions from the middle of the back wall that pass through the 8 cm hole; a
-    // cosine-sampled direction does with probability ~1.3e-4.
     let x = glam::Vec3::new(0.0, 1.3, -1.99);
     let through = (0..n)
         .filter(|_| {
@@ -196,16 +199,54 @@ fn octree_learns_the_camera_obscura_pinhole() {
         })
         .count();
     let p_through = through as f64 / n as f64;
-    eprintln!(
-        "points within 15 cm of the pinhole: {near} of {n} ({concentration:.0}x a uniform density); \
-         guided directions from the back wall through the hole: {p_through:.4}"
+    eprintln!("{method:?}: guided directions from the back wall through the hole: {p_through:.4}");
+    assert!(
+        p_through > 0.02,
+        "{method:?}: guided directions find the pinhole with probability {p_through:.4} only"
     );
+    p_through
+}
+
+#[test]
+fn gmm_learns_the_camera_obscura_pinhole() {
+    learns_the_pinhole(GuidingMethod::Gmm);
+}
+
+#[test]
+fn octree_learns_the_camera_obscura_pinhole() {
+    learns_the_pinhole(GuidingMethod::Octree);
+    // The sampled points themselves cluster at the hole.
+    let scene = load(
+        &std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenes/obscura.xml"),
+        &[("res", "48")],
+    );
+    let mut guide = FocalOctreeGuide::new(
+        focal_render::guide::guide_box(&scene.scene.bounds),
+        Default::default(),
+    )
+    .unwrap();
+    render_with(
+        &scene,
+        Some(&mut guide),
+        &guided_settings(256, 3, 0, Combine::Last),
+    );
+    let hole = DVec3::new(0.0, 1.3, 2.0);
+    let tree = guide.converging();
+    let mut rng = focal_render::sampler::Pcg32::new(1, 2);
+    let n = 20_000;
+    let near = (0..n)
+        .filter(|_| {
+            let u = [rng.next_f64(), rng.next_f64(), rng.next_f64()];
+            tree.sample_point(u).unwrap().distance(hole) < 0.15
+        })
+        .count();
+    let b = scene.scene.bounds;
+    let box_volume = ((b.max - b.min).as_dvec3()).element_product();
+    let ball_volume = 4.0 / 3.0 * std::f64::consts::PI * 0.15f64.powi(3);
+    let concentration = near as f64 / n as f64 / (ball_volume / box_volume);
+    eprintln!("octree points within 15 cm of the pinhole: {concentration:.0}x a uniform density");
     assert!(
         concentration > 100.0,
         "the octree's density does not peak at the pinhole ({concentration:.1}x uniform)"
-    );
-    assert!(
-        p_through > 0.02,
-        "guided directions find the pinhole with probability {p_through:.4} only"
     );
 }

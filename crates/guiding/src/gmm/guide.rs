@@ -27,6 +27,8 @@ pub const NARROWING_DECAY: f64 = 0.25;
 /// With a `normal`, a hemisphere holding less guide mass than this is treated as empty (`sample`
 /// returns `None`, `pdf` 0): guiding into it would only chase the mixture's far tails.
 pub const MIN_HEMISPHERE_MASS: f64 = 1e-6;
+/// The most points drawn along one ray when rays are few (`GmmConfig::min_points`).
+const MAX_ADAPTIVE_POINTS_PER_RAY: usize = 64;
 /// Magic prefix of [`GmmGuide::save`] snapshots.
 const SNAPSHOT_MAGIC: [u8; 8] = *b"FOCALGMM";
 /// Version of the snapshot layout.
@@ -44,8 +46,12 @@ pub struct GmmConfig {
     pub k_max: usize,
     /// EM iterations per update (structure changes happen in the middle one).
     pub em_iterations: u32,
-    /// Points drawn along each training ray.
+    /// Points drawn along each training ray (at least; see `min_points`).
     pub points_per_ray: u32,
+    /// When there are few rays, draw up to 64 points per ray so that each mixture gets at least this many
+    /// points: a sparse iteration (a few hundred rays through a pinhole) then still shows EM where its
+    /// lines cross, instead of two points per line.
+    pub min_points: usize,
     /// Points per mixture and update; beyond it a deterministic stride subset of the rays is used, with
     /// correspondingly larger weights (bounds the fit time).
     pub max_points: usize,
@@ -80,6 +86,7 @@ impl Default for GmmConfig {
             k_max: 64,
             em_iterations: 4,
             points_per_ray: 2,
+            min_points: 1 << 16,
             max_points: 1 << 20,
             max_rays: 2_000_000,
             decay: 0.5,
@@ -646,7 +653,11 @@ impl GuidingDistribution for GmmGuide {
             self.config.decay
         };
         let pending = std::mem::take(&mut self.pending);
-        let per_ray = self.config.points_per_ray as usize;
+        let min_per_ray = self.config.points_per_ray as usize;
+        let min_points = self.config.min_points.min(self.config.max_points);
+        let per_ray_for = |rays: usize| {
+            min_per_ray.max((min_points / rays.max(1)).min(MAX_ADAPTIVE_POINTS_PER_RAY))
+        };
         let max_points = self.config.max_points;
         let q = self.p_div;
         let seed = mix64(self.config.seed ^ mix64(ctx.iteration as u64));
@@ -663,8 +674,20 @@ impl GuidingDistribution for GmmGuide {
             .as_ref()
             .map_or(PointSampling::Uniform, PointSampling::Narrowing);
         let narrowed = conv_table.is_some() || div_table.is_some();
-        let conv_points = generate_points(&pending.conv, per_ray, max_points, conv_sampling, seed);
-        let div_points = generate_points(&pending.div, per_ray, max_points, div_sampling, !seed);
+        let conv_points = generate_points(
+            &pending.conv,
+            per_ray_for(pending.conv.len()),
+            max_points,
+            conv_sampling,
+            seed,
+        );
+        let div_points = generate_points(
+            &pending.div,
+            per_ray_for(pending.div.len()),
+            max_points,
+            div_sampling,
+            !seed,
+        );
         let points_seconds = start.elapsed().as_secs_f64();
 
         let fit_start = Instant::now();
