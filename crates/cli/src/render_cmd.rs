@@ -127,7 +127,7 @@ pub fn parse_sampler(s: &str) -> Result<SamplerKind> {
 /// `None` for a plain render.
 fn guided_spec(scene: &IntegratorSpec, g: &GuidingArgs) -> Result<Option<GuidedSpec>> {
     let mut spec = match (scene, &g.guiding) {
-        (IntegratorSpec::Guided(s), _) => s.clone(),
+        (IntegratorSpec::Guided(s), _) => (**s).clone(),
         (IntegratorSpec::Path(p), Some(_)) => GuidedSpec {
             method: GuidingMethod::Octree,
             settings: GuidedSettings {

@@ -26,7 +26,7 @@ pub enum IntegratorSpec {
     /// path tracer limited to direct lighting, max_depth 2).
     Path(PathSettings),
     /// Guided path tracing with a learned guide (`guided`, or Rath et al.'s `focal_path`).
-    Guided(GuidedSpec),
+    Guided(Box<GuidedSpec>),
 }
 
 /// A guided integrator element's settings; the command line may override each.
@@ -319,7 +319,7 @@ impl Builder<'_> {
                     o.min_depth = i.int_or("orth.min_depth", o.min_depth as i64)?.max(0) as u32;
                     o.max_depth = i.int_or("orth.max_depth", o.max_depth as i64)?.max(0) as u32;
                 }
-                Ok(IntegratorSpec::Guided(spec))
+                Ok(IntegratorSpec::Guided(Box::new(spec)))
             }
             "path" | "volpath" => Ok(IntegratorSpec::Path(read(source, -1)?)),
             "direct" => {
