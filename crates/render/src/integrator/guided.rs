@@ -3,7 +3,7 @@
 //! next-event estimation is MIS-weighted against the mixture pdf, and the path's segments are recorded as
 //! training data for the next iteration.
 
-use super::{power_heuristic, FirstHitAovs, Integrator, PathSettings};
+use super::{next_event_estimate, power_heuristic, FirstHitAovs, Integrator, PathSettings};
 use crate::bsdf::{Bsdf, BsdfContext};
 use crate::color::Rgb;
 use crate::ray::{offset_ray_origin, Ray};
@@ -199,36 +199,14 @@ impl Integrator for GuidedPathIntegrator<'_> {
                 .then(|| si.sh_frame.n * wi.z.signum());
 
             // Next-event estimation, MIS-weighted against the full sampling mixture.
-            if bsdf.has_smooth() {
-                let u1 = sampler.next_1d();
-                let u2 = sampler.next_1d();
-                let u = sampler.next_2d();
-                if let Some((_, es)) = scene.sample_emitter_direction(si.p, u1, u2, u) {
-                    let wo = si.to_local(es.wi);
-                    let f = bsdf.eval(&ctx, wi, wo);
-                    if f != Rgb::ZERO {
-                        let o = offset_ray_origin(si.p, si.ng, es.wi);
-                        let t_max = if es.dist.is_finite() {
-                            (es.dist * (1.0 - 1e-4)).max(0.0)
-                        } else {
-                            f32::INFINITY
-                        };
-                        if !scene.occluded(&Ray::segment(o, es.wi, t_max)) {
-                            let mis = if es.delta {
-                                1.0
-                            } else {
-                                let p_bsdf = bsdf.pdf(&ctx, wi, wo);
-                                let p = match guide {
-                                    Some(g) => self.mixture_pdf(g, p_bsdf, si.p, hint, es.wi),
-                                    None => p_bsdf,
-                                };
-                                power_heuristic(es.pdf, p)
-                            };
-                            result += throughput * f * es.weight * mis;
-                        }
+            result += throughput
+                * next_event_estimate(scene, &si, bsdf, &ctx, wi, sampler, |wo, wo_world| {
+                    let p_bsdf = bsdf.pdf(&ctx, wi, wo);
+                    match guide {
+                        Some(g) => self.mixture_pdf(g, p_bsdf, si.p, hint, wo_world),
+                        None => p_bsdf,
                     }
-                }
-            }
+                });
 
             // Direction sampling: BSDF, or the one-sample BSDF/guide mixture.
             let Some(step) = sample_direction(self, bsdf, guide, &ctx, &si, wi, hint, sampler)

@@ -6,8 +6,10 @@ mod path;
 pub use guided::{GuidedPathIntegrator, GuidedSettings, Roulette, GLOSSY_ROUGHNESS};
 pub use path::{PathIntegrator, PathSettings};
 
+use crate::bsdf::{Bsdf, BsdfContext};
 use crate::color::Rgb;
-use crate::ray::Ray;
+use crate::geometry::SurfaceInteraction;
+use crate::ray::{offset_ray_origin, Ray};
 use crate::sampler::Sampler;
 use crate::scene::Scene;
 use focal_guiding::TrainingSegment;
@@ -49,4 +51,49 @@ pub fn power_heuristic(a: f32, b: f32) -> f32 {
     } else {
         0.0
     }
+}
+
+/// Next-event estimation at a surface hit: picks an emitter, samples a point on it, tests visibility and
+/// returns f·cos·Le/pdf, MIS-weighted by the power heuristic against `direction_pdf(wo_local, wo_world)`,
+/// the density with which the integrator's own direction sampling would have produced that direction.
+/// Zero for BSDFs without a smooth component. Draws four sampler dimensions when it runs.
+#[inline]
+pub(crate) fn next_event_estimate(
+    scene: &Scene,
+    si: &SurfaceInteraction,
+    bsdf: &Bsdf,
+    ctx: &BsdfContext,
+    wi: Vec3,
+    sampler: &mut Sampler,
+    direction_pdf: impl FnOnce(Vec3, Vec3) -> f32,
+) -> Rgb {
+    if !bsdf.has_smooth() {
+        return Rgb::ZERO;
+    }
+    let u1 = sampler.next_1d();
+    let u2 = sampler.next_1d();
+    let u = sampler.next_2d();
+    let Some((_, es)) = scene.sample_emitter_direction(si.p, u1, u2, u) else {
+        return Rgb::ZERO;
+    };
+    let wo = si.to_local(es.wi);
+    let f = bsdf.eval(ctx, wi, wo);
+    if f == Rgb::ZERO {
+        return Rgb::ZERO;
+    }
+    let o = offset_ray_origin(si.p, si.ng, es.wi);
+    let t_max = if es.dist.is_finite() {
+        (es.dist * (1.0 - 1e-4)).max(0.0)
+    } else {
+        f32::INFINITY
+    };
+    if scene.occluded(&Ray::segment(o, es.wi, t_max)) {
+        return Rgb::ZERO;
+    }
+    let mis = if es.delta {
+        1.0
+    } else {
+        power_heuristic(es.pdf, direction_pdf(wo, es.wi))
+    };
+    f * es.weight * mis
 }

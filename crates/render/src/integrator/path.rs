@@ -1,6 +1,6 @@
 //! Unidirectional path tracing with next-event estimation and MIS (Mitsuba `path`).
 
-use super::{power_heuristic, FirstHitAovs, Integrator};
+use super::{next_event_estimate, power_heuristic, FirstHitAovs, Integrator};
 use crate::bsdf::BsdfContext;
 use crate::color::Rgb;
 use crate::ray::{offset_ray_origin, Ray};
@@ -119,31 +119,10 @@ impl Integrator for PathIntegrator {
             let wi = si.to_local(-ray.d);
 
             // Next-event estimation.
-            if bsdf.has_smooth() {
-                let u1 = sampler.next_1d();
-                let u2 = sampler.next_1d();
-                let u = sampler.next_2d();
-                if let Some((_, es)) = scene.sample_emitter_direction(si.p, u1, u2, u) {
-                    let wo = si.to_local(es.wi);
-                    let f = bsdf.eval(&ctx, wi, wo);
-                    if f != Rgb::ZERO {
-                        let o = offset_ray_origin(si.p, si.ng, es.wi);
-                        let t_max = if es.dist.is_finite() {
-                            (es.dist * (1.0 - 1e-4)).max(0.0)
-                        } else {
-                            f32::INFINITY
-                        };
-                        if !scene.occluded(&Ray::segment(o, es.wi, t_max)) {
-                            let mis = if es.delta {
-                                1.0
-                            } else {
-                                power_heuristic(es.pdf, bsdf.pdf(&ctx, wi, wo))
-                            };
-                            result += throughput * f * es.weight * mis;
-                        }
-                    }
-                }
-            }
+            result += throughput
+                * next_event_estimate(scene, &si, bsdf, &ctx, wi, sampler, |wo, _| {
+                    bsdf.pdf(&ctx, wi, wo)
+                });
 
             // BSDF sampling.
             let u1 = sampler.next_1d();
