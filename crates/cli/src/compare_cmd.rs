@@ -107,6 +107,7 @@ pub fn run(a: CompareArgs) -> Result<()> {
                     rr: None,
                     no_escaped: false,
                     octree_threshold: None,
+                    gmm_k_max: None,
                     save_guide: None,
                     load_guide: None,
                     guide_image: seed == 0 && method != "pt" && method != "none",

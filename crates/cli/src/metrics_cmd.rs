@@ -4,6 +4,7 @@ use anyhow::{Context, Result};
 use clap::Args;
 use focal_render::film::Image;
 use focal_render::metrics::{image_errors, DEFAULT_REL_EPSILON};
+use std::io::Write;
 use std::path::PathBuf;
 
 /// Arguments of `focal metrics`.
@@ -30,19 +31,21 @@ pub fn run(a: MetricsArgs) -> Result<()> {
     let image = read(&a.image)?;
     let reference = read(&a.reference)?;
     let e = image_errors(&image, &reference, a.epsilon, a.outliers).map_err(anyhow::Error::msg)?;
-    if a.json {
-        println!("{}", serde_json::to_string_pretty(&e)?);
+    let mut text = if a.json {
+        serde_json::to_string_pretty(&e)? + "\n"
     } else {
-        println!("relMSE (eps {}) {:.6e}", e.epsilon, e.rel_mse);
-        println!("MSE               {:.6e}", e.mse);
-        println!("MAPE              {:.6e}", e.mape);
-        println!("SMAPE             {:.6e}", e.smape);
-        if e.outlier_fraction > 0.0 {
-            println!(
-                "({}% largest per-pixel errors dropped)",
-                e.outlier_fraction * 100.0
-            );
-        }
+        format!(
+            "relMSE (eps {}) {:.6e}\nMSE               {:.6e}\nMAPE              {:.6e}\nSMAPE             {:.6e}\n",
+            e.epsilon, e.rel_mse, e.mse, e.mape, e.smape
+        )
+    };
+    if !a.json && e.outlier_fraction > 0.0 {
+        text += &format!(
+            "({}% largest per-pixel errors dropped)\n",
+            e.outlier_fraction * 100.0
+        );
     }
+    // A closed pipe (`| head`) is the reader's choice, not an error worth a panic.
+    let _ = std::io::stdout().lock().write_all(text.as_bytes());
     Ok(())
 }

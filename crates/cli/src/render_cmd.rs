@@ -92,6 +92,9 @@ pub struct GuidingArgs {
     /// Octree relative split threshold (orth.threshold).
     #[arg(long)]
     pub octree_threshold: Option<f64>,
+    /// Most Gaussian components per mixture (converging and diverging each).
+    #[arg(long)]
+    pub gmm_k_max: Option<usize>,
     /// Write the trained guide to this file after training.
     #[arg(long, value_name = "PATH")]
     pub save_guide: Option<PathBuf>,
@@ -163,6 +166,11 @@ fn guided_spec(scene: &IntegratorSpec, g: &GuidingArgs) -> Result<Option<GuidedS
     }
     if let Some(t) = g.octree_threshold {
         spec.params.octree.threshold = t;
+    }
+    if let Some(k) = g.gmm_k_max {
+        spec.params.gmm.k_max = k;
+        spec.params.gmm.k_init = spec.params.gmm.k_init.min(k);
+        spec.params.gmm.k_min = spec.params.gmm.k_min.min(k);
     }
     if let Some(f) = g.train_fraction {
         if !(0.0..=1.0).contains(&f) {
