@@ -12,6 +12,60 @@ pub struct Aabb3 {
     pub max: Vec3,
 }
 
+impl Aabb3 {
+    /// The box made usable as a guide's domain: an error naming `owner` if it is not finite or empty; an
+    /// axis of zero extent (a flat scene) padded to 1e-3 of the largest extent (or 1 if all are zero) so
+    /// that every cell and every normalisation has a positive volume.
+    pub fn padded(self, owner: &str) -> Result<Aabb3, String> {
+        if !self.min.is_finite() || !self.max.is_finite() || self.min.cmpgt(self.max).any() {
+            return Err(format!(
+                "{owner} needs a finite non-empty box, got {:?}..{:?}",
+                self.min, self.max
+            ));
+        }
+        let extent = self.max - self.min;
+        let largest = extent.max_element();
+        let pad = if largest > 0.0 { largest * 1e-3 } else { 1.0 };
+        let mut out = self;
+        for axis in 0..3 {
+            if extent[axis] <= 0.0 {
+                out.min[axis] -= pad / 2.0;
+                out.max[axis] += pad / 2.0;
+            }
+        }
+        Ok(out)
+    }
+}
+
+/// Checks the magic and version of a decoded guide snapshot; `kind` names it in the error ("octree
+/// guide", "GMM guide").
+pub(crate) fn check_snapshot_header(
+    kind: &str,
+    magic: [u8; 8],
+    expected_magic: [u8; 8],
+    version: u32,
+    expected_version: u32,
+) -> Result<(), String> {
+    if magic != expected_magic {
+        return Err(format!("not {} {kind} snapshot (bad magic)", article(kind)));
+    }
+    if version != expected_version {
+        return Err(format!(
+            "{kind} snapshot version {version} is not supported (expected {expected_version})"
+        ));
+    }
+    Ok(())
+}
+
+/// "an" before a vowel sound as the error messages spell them, "a" otherwise.
+fn article(kind: &str) -> &'static str {
+    if kind.starts_with(['a', 'e', 'i', 'o', 'u']) {
+        "an"
+    } else {
+        "a"
+    }
+}
+
 /// One path segment recorded for training (the design notes' "training data", §3 of
 /// `focal-guiding-octree.md`): a segment leaving a non-delta vertex that hit a surface.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]

@@ -20,6 +20,7 @@ use super::rays::{
 use super::special::open_unit;
 use super::sym3::Sym3;
 use super::truncated::sample_half_space;
+use crate::distribution::check_snapshot_header;
 use crate::{Aabb3, GuideSample, GuidingDistribution, TrainingSegment, UpdateContext, UpdateStats};
 
 /// The decay of the online statistics once iterative narrowing starts (as the octree's).
@@ -189,7 +190,7 @@ impl GmmGuide {
     /// An untrained guide over the scene box `aabb` (axes of zero extent are padded as the octree does).
     pub fn new(aabb: Aabb3, config: GmmConfig) -> Result<Self, String> {
         config.validate()?;
-        let aabb = padded_aabb(aabb)?;
+        let aabb = aabb.padded("GMM guide")?;
         let (center, scale) = unit_frame(aabb);
         Ok(Self {
             aabb,
@@ -451,21 +452,19 @@ impl GmmGuide {
     pub fn load(bytes: &[u8]) -> Result<Self, String> {
         let snapshot: Snapshot =
             postcard::from_bytes(bytes).map_err(|e| format!("not a GMM guide snapshot: {e}"))?;
-        if snapshot.magic != SNAPSHOT_MAGIC {
-            return Err("not a GMM guide snapshot (bad magic)".into());
-        }
-        if snapshot.version != SNAPSHOT_VERSION {
-            return Err(format!(
-                "GMM guide snapshot version {} is not supported (expected {SNAPSHOT_VERSION})",
-                snapshot.version
-            ));
-        }
+        check_snapshot_header(
+            "GMM guide",
+            snapshot.magic,
+            SNAPSHOT_MAGIC,
+            snapshot.version,
+            SNAPSHOT_VERSION,
+        )?;
         snapshot.config.validate()?;
         let aabb = Aabb3 {
             min: Vec3::from_array(snapshot.aabb_min),
             max: Vec3::from_array(snapshot.aabb_max),
         };
-        if padded_aabb(aabb)? != aabb {
+        if aabb.padded("GMM guide")? != aabb {
             return Err("GMM guide snapshot has a degenerate box".into());
         }
         if !(0.0..=1.0).contains(&snapshot.p_div) {
@@ -846,25 +845,4 @@ fn unit_frame(aabb: Aabb3) -> (DVec3, f64) {
     let min = aabb.min.as_dvec3();
     let max = aabb.max.as_dvec3();
     ((min + max) * 0.5, (max - min).max_element() * 0.5)
-}
-
-/// Validates the scene box and pads axes of zero extent (as the octree guide does).
-fn padded_aabb(aabb: Aabb3) -> Result<Aabb3, String> {
-    if !aabb.min.is_finite() || !aabb.max.is_finite() || aabb.min.cmpgt(aabb.max).any() {
-        return Err(format!(
-            "GMM guide needs a finite non-empty box, got {:?}..{:?}",
-            aabb.min, aabb.max
-        ));
-    }
-    let extent = aabb.max - aabb.min;
-    let largest = extent.max_element();
-    let pad = if largest > 0.0 { largest * 1e-3 } else { 1.0 };
-    let mut out = aabb;
-    for axis in 0..3 {
-        if extent[axis] <= 0.0 {
-            out.min[axis] -= pad / 2.0;
-            out.max[axis] += pad / 2.0;
-        }
-    }
-    Ok(out)
 }

@@ -11,6 +11,7 @@ use serde::{Deserialize, Serialize};
 use super::tree::{
     is_positive_finite, ChildSlot, FocalTree, Node, SplatStrategy, TreeConfig, MAX_SUPPORTED_DEPTH,
 };
+use crate::distribution::check_snapshot_header;
 use crate::{Aabb3, GuideSample, GuidingDistribution, TrainingSegment, UpdateContext, UpdateStats};
 
 /// Segments per splatting work item. Fixed (not derived from the thread count) so the per-chunk sums,
@@ -148,7 +149,7 @@ impl FocalOctreeGuide {
     /// all are zero) so every cell has a positive volume; the original would divide by a zero volume.
     pub fn new(aabb: Aabb3, config: OctreeGuideConfig) -> Result<Self, String> {
         config.validate()?;
-        let aabb = padded_aabb(aabb)?;
+        let aabb = aabb.padded("octree guide")?;
         let tree_config = config.tree_config();
         let conv = FocalTree::new(aabb, tree_config);
         let div = FocalTree::new(aabb, tree_config);
@@ -289,21 +290,19 @@ impl FocalOctreeGuide {
     pub fn load(bytes: &[u8]) -> Result<Self, String> {
         let snapshot: Snapshot = postcard::from_bytes(bytes)
             .map_err(|e| format!("not an octree guide snapshot: {e}"))?;
-        if snapshot.magic != SNAPSHOT_MAGIC {
-            return Err("not an octree guide snapshot (bad magic)".into());
-        }
-        if snapshot.version != SNAPSHOT_VERSION {
-            return Err(format!(
-                "octree guide snapshot version {} is not supported (expected {SNAPSHOT_VERSION})",
-                snapshot.version
-            ));
-        }
+        check_snapshot_header(
+            "octree guide",
+            snapshot.magic,
+            SNAPSHOT_MAGIC,
+            snapshot.version,
+            SNAPSHOT_VERSION,
+        )?;
         snapshot.config.validate()?;
         let aabb = Aabb3 {
             min: Vec3::from_array(snapshot.aabb_min),
             max: Vec3::from_array(snapshot.aabb_max),
         };
-        if padded_aabb(aabb)? != aabb {
+        if aabb.padded("octree guide")? != aabb {
             return Err("octree guide snapshot has a degenerate box".into());
         }
         if !(0.0..=1.0).contains(&snapshot.p_div) {
@@ -537,27 +536,6 @@ impl SavedTree {
             self.accumulators,
         ))
     }
-}
-
-/// Validates the scene box and pads axes of zero extent.
-fn padded_aabb(aabb: Aabb3) -> Result<Aabb3, String> {
-    if !aabb.min.is_finite() || !aabb.max.is_finite() || aabb.min.cmpgt(aabb.max).any() {
-        return Err(format!(
-            "octree guide needs a finite non-empty box, got {:?}..{:?}",
-            aabb.min, aabb.max
-        ));
-    }
-    let extent = aabb.max - aabb.min;
-    let largest = extent.max_element();
-    let pad = if largest > 0.0 { largest * 1e-3 } else { 1.0 };
-    let mut out = aabb;
-    for axis in 0..3 {
-        if extent[axis] <= 0.0 {
-            out.min[axis] -= pad / 2.0;
-            out.max[axis] += pad / 2.0;
-        }
-    }
-    Ok(out)
 }
 
 fn add_into(total: &mut [f64], part: &[f64]) {

@@ -14,13 +14,12 @@
 //! and sample budget give the same learned model and image whatever the number of threads.
 
 use super::combine::{inverse_variance_weights, weighted_image, Combine, IterationImage};
-use super::{next_pass_spp, PassRunner, Progress, RenderSettings, RenderStats};
+use super::{next_pass_spp, PassRunner, Progress, ProgressCounter, RenderSettings, RenderStats};
 use crate::camera::Camera;
 use crate::film::{FilmSpec, Image};
 use crate::integrator::{GuidedPathIntegrator, GuidedSettings};
 use crate::scene::Scene;
 use focal_guiding::{GuidingDistribution, UpdateContext, UpdateStats};
-use std::sync::atomic::{AtomicU64, Ordering};
 use std::time::{Duration, Instant};
 
 /// Pixel samples per pass at most during training, bounding the memory of one pass's segments.
@@ -177,16 +176,8 @@ pub fn render_guided(
         TrainingBudget::Time { max_spp, .. } => max_spp,
     };
     let training_iterations = training_plans.len() as u32;
-    let done = AtomicU64::new(0);
-    let samples_total = pixels * total_spp_hint;
-    let on_tile = |n: u64| {
-        let d = done.fetch_add(n, Ordering::Relaxed) + n;
-        progress(Progress {
-            samples_done: d,
-            samples_total,
-            elapsed: start.elapsed(),
-        });
-    };
+    let counter = ProgressCounter::new(progress, pixels * total_spp_hint, start);
+    let on_tile = |n: u64| counter.add(n);
 
     let mut images: Vec<IterationImage> = Vec::new();
     let mut stats: Vec<IterationStats> = Vec::new();

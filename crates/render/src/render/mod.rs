@@ -293,6 +293,40 @@ impl<'a> PassRunner<'a> {
     }
 }
 
+/// Counts finished pixel samples across worker threads and reports them to a progress callback.
+pub struct ProgressCounter<'a> {
+    progress: &'a (dyn Fn(Progress) + Sync),
+    samples_total: u64,
+    start: Instant,
+    done: AtomicU64,
+}
+
+impl<'a> ProgressCounter<'a> {
+    /// A counter at zero for a render of `samples_total` pixel samples that started at `start`.
+    pub fn new(
+        progress: &'a (dyn Fn(Progress) + Sync),
+        samples_total: u64,
+        start: Instant,
+    ) -> Self {
+        ProgressCounter {
+            progress,
+            samples_total,
+            start,
+            done: AtomicU64::new(0),
+        }
+    }
+
+    /// Adds `n` finished samples and reports the total.
+    pub fn add(&self, n: u64) {
+        let d = self.done.fetch_add(n, Ordering::Relaxed) + n;
+        (self.progress)(Progress {
+            samples_done: d,
+            samples_total: self.samples_total,
+            elapsed: self.start.elapsed(),
+        });
+    }
+}
+
 /// Renders `scene` through `camera` onto a film of `spec`. `progress` is called from worker threads.
 pub fn render(
     scene: &Scene,
@@ -305,16 +339,9 @@ pub fn render(
     let mut runner = PassRunner::new(scene, camera, spec, settings, false);
     let pixels = runner.pixels();
     let samples_total = pixels * settings.spp as u64;
-    let done = AtomicU64::new(0);
     let start = Instant::now();
-    let on_tile = |n: u64| {
-        let d = done.fetch_add(n, Ordering::Relaxed) + n;
-        progress(Progress {
-            samples_done: d,
-            samples_total,
-            elapsed: start.elapsed(),
-        });
-    };
+    let counter = ProgressCounter::new(progress, samples_total, start);
+    let on_tile = |n: u64| counter.add(n);
     let deadline = settings.time_limit.map(|t| start + t);
     // Passes grow geometrically so that time-limited renders stop close to the budget and fixed-spp renders
     // spend little time merging.
