@@ -108,6 +108,7 @@ pub fn run(a: CompareArgs) -> Result<()> {
                     no_escaped: false,
                     octree_threshold: None,
                     gmm_k_max: None,
+                    gmm_params: Vec::new(),
                     save_guide: None,
                     load_guide: None,
                     guide_image: seed == 0 && method != "pt" && method != "none",

@@ -95,6 +95,10 @@ pub struct GuidingArgs {
     /// Most Gaussian components per mixture (converging and diverging each).
     #[arg(long)]
     pub gmm_k_max: Option<usize>,
+    /// A GMM guide parameter, `name=value` (repeatable; the fields of the guide's config, e.g.
+    /// `max_points=131072`, `em_iterations=2`, `decay=0.5`).
+    #[arg(long = "gmm", value_name = "NAME=VALUE")]
+    pub gmm_params: Vec<String>,
     /// Write the trained guide to this file after training.
     #[arg(long, value_name = "PATH")]
     pub save_guide: Option<PathBuf>,
@@ -171,6 +175,9 @@ fn guided_spec(scene: &IntegratorSpec, g: &GuidingArgs) -> Result<Option<GuidedS
         spec.params.gmm.k_max = k;
         spec.params.gmm.k_init = spec.params.gmm.k_init.min(k);
         spec.params.gmm.k_min = spec.params.gmm.k_min.min(k);
+    }
+    for p in &g.gmm_params {
+        spec.params.gmm = with_param(&spec.params.gmm, p).context("--gmm")?;
     }
     if let Some(f) = g.train_fraction {
         if !(0.0..=1.0).contains(&f) {
@@ -400,4 +407,31 @@ pub fn run(a: RenderArgs) -> Result<()> {
         mean[2]
     );
     Ok(())
+}
+
+/// `config` with the field named in `assignment` (`name=value`) set, through its serde form, so every
+/// field of a guide's config can be set from the command line without a flag each.
+fn with_param<T>(config: &T, assignment: &str) -> Result<T>
+where
+    T: serde::Serialize + serde::de::DeserializeOwned,
+{
+    let (name, value) = assignment
+        .split_once('=')
+        .with_context(|| format!("expected name=value, got `{assignment}`"))?;
+    let mut json = serde_json::to_value(config)?;
+    let fields = json
+        .as_object_mut()
+        .context("the config is not a set of named fields")?;
+    let Some(old) = fields.get(name) else {
+        let names: Vec<&str> = fields.keys().map(String::as_str).collect();
+        bail!("unknown parameter `{name}` (known: {})", names.join(", "));
+    };
+    let parsed: serde_json::Value = serde_json::from_str(value)
+        .or_else(|_| serde_json::from_str(&format!("\"{value}\"")))
+        .with_context(|| format!("bad value `{value}` for `{name}`"))?;
+    if std::mem::discriminant(old) != std::mem::discriminant(&parsed) {
+        bail!("`{name}` takes a value like {old}, got `{value}`");
+    }
+    fields.insert(name.to_string(), parsed);
+    serde_json::from_value(json).with_context(|| format!("bad value `{value}` for `{name}`"))
 }

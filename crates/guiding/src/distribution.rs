@@ -122,6 +122,22 @@ pub struct UpdateStats {
     pub details: Vec<(String, f64)>,
 }
 
+/// What a distribution computes once per shading point and reuses for every [`GuidingDistribution::sample_at`]
+/// and [`GuidingDistribution::pdf_at`] call there (the GMM's per-component hemisphere masses, needed by
+/// next-event estimation, sampling and the BSDF direction's pdf alike). Keep one per path and reuse it
+/// across vertices so its buffer is allocated once.
+#[derive(Clone, Debug, Default)]
+pub struct GuideVertex {
+    /// The shading point.
+    pub x: Vec3,
+    /// The hemisphere hint, as the `normal` of [`GuidingDistribution::sample`].
+    pub normal: Option<Vec3>,
+    /// Scalars the implementation keeps here.
+    pub scalars: [f64; 4],
+    /// A buffer the implementation keeps here.
+    pub buffer: Vec<f64>,
+}
+
 /// A learned spatial density used to guide path directions.
 ///
 /// `normal`: when the caller will only use directions in the hemisphere around `normal` (an opaque
@@ -138,6 +154,23 @@ pub trait GuidingDistribution: Send + Sync {
 
     /// The exact solid-angle pdf of [`GuidingDistribution::sample`] producing unit direction `d` from `x`.
     fn pdf(&self, x: Vec3, normal: Option<Vec3>, d: Vec3) -> f32;
+
+    /// Prepares `vertex` for queries at `x` with hemisphere hint `normal`. Then `sample_at` and `pdf_at`
+    /// must return exactly what `sample` and `pdf` return for the same `x` and `normal`.
+    fn prepare(&self, x: Vec3, normal: Option<Vec3>, vertex: &mut GuideVertex) {
+        vertex.x = x;
+        vertex.normal = normal;
+    }
+
+    /// [`GuidingDistribution::sample`] at a vertex made by [`GuidingDistribution::prepare`].
+    fn sample_at(&self, vertex: &GuideVertex, u: [f32; 3]) -> Option<GuideSample> {
+        self.sample(vertex.x, vertex.normal, u)
+    }
+
+    /// [`GuidingDistribution::pdf`] at a vertex made by [`GuidingDistribution::prepare`].
+    fn pdf_at(&self, vertex: &GuideVertex, d: Vec3) -> f32 {
+        self.pdf(vertex.x, vertex.normal, d)
+    }
 
     /// Takes one batch of the current iteration's training segments. The renderer calls it between
     /// render passes, with batches in a deterministic order; it must not change what `sample` and `pdf`

@@ -11,6 +11,7 @@ pub mod gmm;
 pub mod octree;
 
 pub use distribution::{
-    Aabb3, GuideSample, GuidingDistribution, TrainingSegment, UpdateContext, UpdateStats,
+    Aabb3, GuideSample, GuideVertex, GuidingDistribution, TrainingSegment, UpdateContext,
+    UpdateStats,
 };
 pub use gmm::{GmmConfig, GmmGuide};

@@ -325,3 +325,32 @@ fn chi_square_detects_a_sampler_that_disagrees_with_its_pdf() {
     );
     assert!(!r.passed, "{r}");
 }
+
+#[test]
+fn prepared_vertex_queries_equal_the_plain_ones_bit_for_bit() {
+    // One `prepare` per shading point serves NEE, sampling and the BSDF direction's pdf: it must not
+    // change a single bit of what `sample` and `pdf` return, with and without a hemisphere hint, and a
+    // reused vertex must forget the previous point.
+    let mut rng = Rng(31);
+    let conv = random_mixture(&mut rng, 5, DVec3::ZERO, 0.05, 0.6);
+    let div = random_mixture(&mut rng, 3, DVec3::new(1.0, 0.5, 0.0), 0.1, 0.4);
+    let g = guide(&conv, &div, 0.3);
+    let mut vertex = focal_guiding::GuideVertex::default();
+    for i in 0..200 {
+        let x = rng.in_box(DVec3::splat(-2.0), DVec3::splat(2.0)).as_vec3();
+        let normal = (i % 3 != 0).then(|| rng.sphere().as_vec3());
+        g.prepare(x, normal, &mut vertex);
+        let u = [rng.f32(), rng.f32(), rng.f32()];
+        let plain = g.sample(x, normal, u);
+        assert_eq!(g.sample_at(&vertex, u), plain);
+        for d in [
+            rng.sphere().as_vec3(),
+            plain.map_or(Vec3::Z, |s| s.direction),
+        ] {
+            assert_eq!(
+                g.pdf_at(&vertex, d).to_bits(),
+                g.pdf(x, normal, d).to_bits()
+            );
+        }
+    }
+}

@@ -355,6 +355,32 @@ fn the_diverging_mixture_learns_a_virtual_image_and_p_div_its_mass_share() {
 }
 
 #[test]
+fn a_mixture_with_a_negligible_share_of_the_data_is_dropped() {
+    // Virtual-image rays carrying 1e-5 of the weight: fitting them would cost a second mixture's pdf at
+    // every vertex for nothing, so the diverging mixture stays empty and p_div exactly 0.
+    let mut guide = GmmGuide::new(scene_box(), GmmConfig::default()).unwrap();
+    let mut rng = Rng(8);
+    for i in 0..3 {
+        let mut batch = focal_batch(&mut rng, 20_000, 0.0);
+        batch.extend(
+            virtual_image_batch(&mut rng, 2_000)
+                .into_iter()
+                .map(|mut s| {
+                    s.weight = 1e-6;
+                    s
+                }),
+        );
+        guide.record(&batch);
+        let s = guide.update(&context(i, 9));
+        assert_eq!(detail(&s, "dropped_div"), 1.0);
+        assert_eq!(detail(&s, "dropped_conv"), 0.0);
+    }
+    assert!(guide.diverging().is_empty());
+    assert_eq!(guide.p_div(), 0.0);
+    assert!(!guide.converging().is_empty());
+}
+
+#[test]
 fn stepwise_statistics_decay_and_the_schedule_switches_to_narrowing() {
     let mut guide = GmmGuide::new(scene_box(), GmmConfig::default()).unwrap();
     let mut rng = Rng(7);
@@ -761,4 +787,39 @@ fn ray_points_carry_the_specified_weights() {
     );
     let _ = Mixture::empty();
     let _: Aabb3 = scene_box();
+}
+
+#[test]
+fn a_stride_subset_of_the_rays_keeps_the_total_mass_in_expectation() {
+    use focal_guiding::gmm::rays::{generate_points, PointSampling};
+    use focal_guiding::gmm::TrainingRay;
+    // 10 000 rays of varied weight and length, at most 2 000 points of 2 per ray: every fifth ray, with
+    // five times the weight.
+    let rays: Vec<TrainingRay> = (0..10_000)
+        .map(|i| TrainingRay {
+            origin: [0.0, 0.0, i as f32 * 1e-4],
+            direction: [1.0, 0.0, 0.0],
+            t0: 0.0,
+            t1: 0.5 + (i % 7) as f32 * 0.1,
+            weight: 1.0 + (i % 11) as f32,
+            pdf: 1.0,
+        })
+        .collect();
+    let mass: f64 = rays
+        .iter()
+        .map(|r| r.weight as f64 * (r.t1 - r.t0) as f64)
+        .sum();
+    let points = generate_points(&rays, 2, 2_000, PointSampling::Uniform, 99);
+    assert_eq!(points.len(), 2_000);
+    let total: f64 = points.iter().map(|p| p.weight as f64).sum();
+    assert!((total / mass - 1.0).abs() < 0.02, "{total} vs {mass}");
+    // Few rays: every ray is used as is.
+    let few = generate_points(&rays[..500], 2, 2_000, PointSampling::Uniform, 99);
+    assert_eq!(few.len(), 1_000);
+    let few_total: f64 = few.iter().map(|p| p.weight as f64).sum();
+    let few_mass: f64 = rays[..500]
+        .iter()
+        .map(|r| r.weight as f64 * (r.t1 - r.t0) as f64)
+        .sum();
+    assert!((few_total / few_mass - 1.0).abs() < 1e-5);
 }

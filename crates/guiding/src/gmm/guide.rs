@@ -21,13 +21,20 @@ use super::special::open_unit;
 use super::sym3::Sym3;
 use super::truncated::sample_half_space;
 use crate::distribution::check_snapshot_header;
-use crate::{Aabb3, GuideSample, GuidingDistribution, TrainingSegment, UpdateContext, UpdateStats};
+use crate::{
+    Aabb3, GuideSample, GuideVertex, GuidingDistribution, TrainingSegment, UpdateContext,
+    UpdateStats,
+};
 
 /// The decay of the online statistics once iterative narrowing starts (as the octree's).
 pub const NARROWING_DECAY: f64 = 0.25;
 /// With a `normal`, a hemisphere holding less guide mass than this is treated as empty (`sample`
 /// returns `None`, `pdf` 0): guiding into it would only chase the mixture's far tails.
 pub const MIN_HEMISPHERE_MASS: f64 = 1e-6;
+/// A mixture holding less than this share of the total (decayed + new) training weight is dropped: it
+/// would cost as much per pdf evaluation as a useful one while adding nothing to the sampling (caustic
+/// scene: the diverging mixture held 1e-16 of the weight with 63 components).
+pub const MIN_MIXTURE_SHARE: f64 = 1e-3;
 /// The most points drawn along one ray when rays are few (`GmmConfig::min_points`).
 const MAX_ADAPTIVE_POINTS_PER_RAY: usize = 64;
 /// Magic prefix of [`GmmGuide::save`] snapshots.
@@ -88,7 +95,7 @@ impl Default for GmmConfig {
             em_iterations: 4,
             points_per_ray: 2,
             min_points: 1 << 16,
-            max_points: 1 << 20,
+            max_points: 1 << 17,
             max_rays: 2_000_000,
             decay: 0.5,
             narrowing: true,
@@ -331,7 +338,7 @@ impl GmmGuide {
     /// (diverging, second half) of the hemisphere above (x, n), and returns
     /// Z = (1 − p_div)·Σ_conv + p_div·Σ_div.
     #[inline]
-    fn hemisphere_masses(&self, x: DVec3, n: DVec3, masses: &mut [f64; 2 * MAX_COMPONENTS]) -> f64 {
+    fn hemisphere_masses(&self, x: DVec3, n: DVec3, masses: &mut [f64]) -> f64 {
         let q = self.p_div;
         let (conv, div) = masses.split_at_mut(MAX_COMPONENTS);
         let mut z = 0.0;
@@ -381,71 +388,88 @@ impl GmmGuide {
         }
     }
 
-    /// Samples a unit-frame direction (not yet rounded) from `x` (unit frame), with the hemisphere mass
-    /// Z of `normal` (1 without one).
-    fn sample_direction(
-        &self,
-        x: DVec3,
-        normal: Option<DVec3>,
-        u: [f32; 3],
-    ) -> Option<(DVec3, f64)> {
+    /// Samples a unit-frame direction (not yet rounded) from `x` (unit frame) over the whole sphere.
+    fn sample_sphere(&self, x: DVec3, u: [f32; 3]) -> Option<DVec3> {
         let u1 = open_unit(u[1] as f64);
         let u2 = open_unit(u[2] as f64);
-        match normal {
-            None => {
-                let q = self.p_div;
-                let u0 = u[0] as f64;
-                let diverging = u0 < q;
-                let u0 = if diverging {
-                    u0 / q
-                } else {
-                    (u0 - q) / (1.0 - q)
-                };
-                let mixture = if diverging {
-                    &self.div.mixture
-                } else {
-                    &self.conv.mixture
-                };
-                let y = mixture.sample_point([u0.clamp(0.0, 1.0), u1, u2])?;
-                Some((if diverging { x - y } else { y - x }, 1.0))
-            }
-            Some(n) => {
-                let mut masses = [0.0f64; 2 * MAX_COMPONENTS];
-                let z = self.hemisphere_masses(x, n, &mut masses);
-                if !(z >= MIN_HEMISPHERE_MASS) {
-                    return None;
+        let q = self.p_div;
+        let u0 = u[0] as f64;
+        let diverging = u0 < q;
+        let u0 = if diverging {
+            u0 / q
+        } else {
+            (u0 - q) / (1.0 - q)
+        };
+        let mixture = if diverging {
+            &self.div.mixture
+        } else {
+            &self.conv.mixture
+        };
+        let y = mixture.sample_point([u0.clamp(0.0, 1.0), u1, u2])?;
+        Some(if diverging { x - y } else { y - x })
+    }
+
+    /// Samples a unit-frame direction (not yet rounded) from `x` (unit frame) in the hemisphere around
+    /// unit `n`, given the per-component hemisphere `masses` and their total `z`
+    /// ([`GmmGuide::hemisphere_masses`]).
+    fn sample_hemisphere(
+        &self,
+        x: DVec3,
+        n: DVec3,
+        masses: &[f64],
+        z: f64,
+        u: [f32; 3],
+    ) -> Option<DVec3> {
+        if !(z >= MIN_HEMISPHERE_MASS) {
+            return None;
+        }
+        let u1 = open_unit(u[1] as f64);
+        let u2 = open_unit(u[2] as f64);
+        let q = self.p_div;
+        let (kc, kd) = (self.conv.mixture.len(), self.div.mixture.len());
+        let shares = masses[..kc].iter().map(|m| (1.0 - q) * m).chain(
+            masses[MAX_COMPONENTS..MAX_COMPONENTS + kd]
+                .iter()
+                .map(|m| q * m),
+        );
+        let target = u[0] as f64 * z;
+        let mut acc = 0.0;
+        let mut chosen = None;
+        for (i, m) in shares.enumerate() {
+            if m > 0.0 {
+                chosen = Some((i, acc, m));
+                if target < acc + m {
+                    break;
                 }
-                let q = self.p_div;
-                let (kc, kd) = (self.conv.mixture.len(), self.div.mixture.len());
-                let shares = masses[..kc].iter().map(|m| (1.0 - q) * m).chain(
-                    masses[MAX_COMPONENTS..MAX_COMPONENTS + kd]
-                        .iter()
-                        .map(|m| q * m),
-                );
-                let target = u[0] as f64 * z;
-                let mut acc = 0.0;
-                let mut chosen = None;
-                for (i, m) in shares.enumerate() {
-                    if m > 0.0 {
-                        chosen = Some((i, acc, m));
-                        if target < acc + m {
-                            break;
-                        }
-                        acc += m;
-                    }
-                }
-                let (i, before, m) = chosen?;
-                let u0 = open_unit((target - before) / m);
-                let dir = if i < kc {
-                    let g = &self.conv.mixture.components()[i];
-                    sample_half_space(g, x, n, true, [u0, u1, u2]) - x
-                } else {
-                    let g = &self.div.mixture.components()[i - kc];
-                    x - sample_half_space(g, x, n, false, [u0, u1, u2])
-                };
-                Some((dir, z))
+                acc += m;
             }
         }
+        let (i, before, m) = chosen?;
+        let u0 = open_unit((target - before) / m);
+        Some(if i < kc {
+            let g = &self.conv.mixture.components()[i];
+            sample_half_space(g, x, n, true, [u0, u1, u2]) - x
+        } else {
+            let g = &self.div.mixture.components()[i - kc];
+            x - sample_half_space(g, x, n, false, [u0, u1, u2])
+        })
+    }
+
+    /// Rounds a unit-frame direction to the `f32` sample and attaches its exact pdf.
+    fn finish_sample(
+        &self,
+        xu: DVec3,
+        n: Option<DVec3>,
+        dir: DVec3,
+        z: f64,
+    ) -> Option<GuideSample> {
+        let direction = unit(dir)?.as_vec3().normalize_or_zero();
+        if direction == Vec3::ZERO {
+            return None;
+        }
+        // Exactly `pdf(x, normal, direction)`, reusing the hemisphere mass.
+        let pdf = self.pdf_given(xu, n, direction, z) as f32;
+        (pdf > 0.0 && pdf.is_finite()).then_some(GuideSample { direction, pdf })
     }
 
     /// Decodes a snapshot written by [`GuidingDistribution::save`].
@@ -570,26 +594,59 @@ impl GuidingDistribution for GmmGuide {
     /// With a normal: `u[0]` picks a component among both mixtures in proportion to its mass in the
     /// hemisphere and, rescaled, the truncated normal variate along the normal.
     fn sample(&self, x: Vec3, normal: Option<Vec3>, u: [f32; 3]) -> Option<GuideSample> {
-        if !self.is_trained() {
-            return None;
-        }
-        let xu = self.to_unit(x);
-        if !xu.is_finite() {
-            return None;
-        }
-        let n = normal.and_then(|n| unit(n.as_dvec3()));
-        let (dir, z) = self.sample_direction(xu, n, u)?;
-        let direction = unit(dir)?.as_vec3().normalize_or_zero();
-        if direction == Vec3::ZERO {
-            return None;
-        }
-        // Exactly `pdf(x, normal, direction)`, reusing the hemisphere mass.
-        let pdf = self.pdf_given(xu, n, direction, z) as f32;
-        (pdf > 0.0 && pdf.is_finite()).then_some(GuideSample { direction, pdf })
+        let mut vertex = GuideVertex::default();
+        self.prepare(x, normal, &mut vertex);
+        self.sample_at(&vertex, u)
     }
 
     fn pdf(&self, x: Vec3, normal: Option<Vec3>, d: Vec3) -> f32 {
         let p = self.pdf_f64(x, normal, d) as f32;
+        if p.is_finite() {
+            p
+        } else {
+            0.0
+        }
+    }
+
+    /// Computes the unit-frame point and, with a normal, every component's hemisphere mass once.
+    fn prepare(&self, x: Vec3, normal: Option<Vec3>, vertex: &mut GuideVertex) {
+        vertex.x = x;
+        vertex.normal = normal;
+        let xu = self.to_unit(x);
+        vertex.scalars = [xu.x, xu.y, xu.z, 1.0];
+        if !self.is_trained() || !xu.is_finite() {
+            return;
+        }
+        if let Some(n) = normal.and_then(|n| unit(n.as_dvec3())) {
+            vertex.buffer.resize(2 * MAX_COMPONENTS, 0.0);
+            vertex.scalars[3] = self.hemisphere_masses(xu, n, &mut vertex.buffer);
+        }
+    }
+
+    fn sample_at(&self, vertex: &GuideVertex, u: [f32; 3]) -> Option<GuideSample> {
+        if !self.is_trained() {
+            return None;
+        }
+        let [ux, uy, uz, z] = vertex.scalars;
+        let xu = DVec3::new(ux, uy, uz);
+        if !xu.is_finite() {
+            return None;
+        }
+        let n = vertex.normal.and_then(|n| unit(n.as_dvec3()));
+        let dir = match n {
+            None => self.sample_sphere(xu, u)?,
+            Some(n) => self.sample_hemisphere(xu, n, &vertex.buffer, z, u)?,
+        };
+        self.finish_sample(xu, n, dir, z)
+    }
+
+    fn pdf_at(&self, vertex: &GuideVertex, d: Vec3) -> f32 {
+        if !self.is_trained() {
+            return 0.0;
+        }
+        let [ux, uy, uz, z] = vertex.scalars;
+        let n = vertex.normal.and_then(|n| unit(n.as_dvec3()));
+        let p = self.pdf_given(DVec3::new(ux, uy, uz), n, d, z) as f32;
         if p.is_finite() {
             p
         } else {
@@ -651,7 +708,26 @@ impl GuidingDistribution for GmmGuide {
         } else {
             self.config.decay
         };
-        let pending = std::mem::take(&mut self.pending);
+        let mut pending = std::mem::take(&mut self.pending);
+        // Drop a mixture whose data would hold a negligible share: no fit, no pdf cost.
+        let ray_mass = |rays: &[TrainingRay]| {
+            rays.iter()
+                .map(|r| r.weight as f64 * (r.t1 - r.t0) as f64)
+                .sum::<f64>()
+        };
+        let mass_conv = decay * self.conv.weight() + ray_mass(&pending.conv);
+        let mass_div = decay * self.div.weight() + ray_mass(&pending.div);
+        let total_mass = mass_conv + mass_div;
+        let negligible = |m: f64| total_mass > 0.0 && m < MIN_MIXTURE_SHARE * total_mass;
+        let (drop_conv, drop_div) = (negligible(mass_conv), negligible(mass_div));
+        if drop_conv {
+            self.conv = MixtureState::default();
+            pending.conv.clear();
+        }
+        if drop_div {
+            self.div = MixtureState::default();
+            pending.div.clear();
+        }
         let min_per_ray = self.config.points_per_ray as usize;
         let min_points = self.config.min_points.min(self.config.max_points);
         let per_ray_for = |rays: usize| {
@@ -746,6 +822,8 @@ impl GuidingDistribution for GmmGuide {
             ("loglik_conv".into(), conv_report.log_likelihood),
             ("loglik_div".into(), div_report.log_likelihood),
             ("narrowing".into(), narrowed as u8 as f64),
+            ("dropped_conv".into(), drop_conv as u8 as f64),
+            ("dropped_div".into(), drop_div as u8 as f64),
             ("decay".into(), decay),
             ("segments_dropped".into(), pending.dropped as f64),
             ("rays_empty".into(), pending.empty as f64),

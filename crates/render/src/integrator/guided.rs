@@ -9,7 +9,7 @@ use crate::color::Rgb;
 use crate::ray::{offset_ray_origin, Ray};
 use crate::sampler::Sampler;
 use crate::scene::Scene;
-use focal_guiding::{GuidingDistribution, TrainingSegment};
+use focal_guiding::{GuideVertex, GuidingDistribution, TrainingSegment};
 
 /// Roughness below which a path vertex counts as glossy (Ruppert et al. 2020, as the focal-guiding code):
 /// a glossy endpoint can form a virtual image, so the whole line through it is a focal candidate.
@@ -104,13 +104,12 @@ impl GuidedPathIntegrator<'_> {
     fn mixture_pdf(
         &self,
         guide: &dyn GuidingDistribution,
+        vertex: &GuideVertex,
         p_bsdf: f32,
-        x: glam::Vec3,
-        hint: Option<glam::Vec3>,
         wo_world: glam::Vec3,
     ) -> f32 {
         let a = self.settings.guide_fraction;
-        a * guide.pdf(x, hint, wo_world) + (1.0 - a) * p_bsdf
+        a * guide.pdf_at(vertex, wo_world) + (1.0 - a) * p_bsdf
     }
 }
 
@@ -137,6 +136,7 @@ impl Integrator for GuidedPathIntegrator<'_> {
         let mut prev_pdf = 1.0f32;
         let mut prev_delta = true;
         let mut pending: Vec<PendingSegment> = Vec::new();
+        let mut vertex = GuideVertex::default();
 
         loop {
             let si = scene.intersect(&ray);
@@ -197,19 +197,22 @@ impl Integrator for GuidedPathIntegrator<'_> {
             // can truncate their sampling to it.
             let hint = (self.settings.hemisphere_hint && !bsdf.has_transmission())
                 .then(|| si.sh_frame.n * wi.z.signum());
+            if let Some(g) = guide {
+                g.prepare(si.p, hint, &mut vertex);
+            }
 
             // Next-event estimation, MIS-weighted against the full sampling mixture.
             result += throughput
                 * next_event_estimate(scene, &si, bsdf, &ctx, wi, sampler, |wo, wo_world| {
                     let p_bsdf = bsdf.pdf(&ctx, wi, wo);
                     match guide {
-                        Some(g) => self.mixture_pdf(g, p_bsdf, si.p, hint, wo_world),
+                        Some(g) => self.mixture_pdf(g, &vertex, p_bsdf, wo_world),
                         None => p_bsdf,
                     }
                 });
 
             // Direction sampling: BSDF, or the one-sample BSDF/guide mixture.
-            let Some(step) = sample_direction(self, bsdf, guide, &ctx, &si, wi, hint, sampler)
+            let Some(step) = sample_direction(self, bsdf, guide, &vertex, &ctx, &si, wi, sampler)
             else {
                 break;
             };
@@ -292,10 +295,10 @@ fn sample_direction(
     integrator: &GuidedPathIntegrator<'_>,
     bsdf: &Bsdf,
     guide: Option<&dyn GuidingDistribution>,
+    vertex: &GuideVertex,
     ctx: &BsdfContext,
     si: &crate::geometry::SurfaceInteraction,
     wi: glam::Vec3,
-    hint: Option<glam::Vec3>,
     sampler: &mut Sampler,
 ) -> Option<Step> {
     let u_select = sampler.next_1d();
@@ -327,7 +330,7 @@ fn sample_direction(
         }
         let f = bsdf.eval(ctx, wi, bs.wo);
         let p_bsdf = bsdf.pdf(ctx, wi, bs.wo);
-        let pdf = integrator.mixture_pdf(guide, p_bsdf, si.p, hint, wo_world);
+        let pdf = integrator.mixture_pdf(guide, vertex, p_bsdf, wo_world);
         if !(pdf > 0.0) || f == Rgb::ZERO {
             return None;
         }
@@ -341,7 +344,7 @@ fn sample_direction(
     } else {
         // Guide branch: the rescaled selection number is uniform again and drives the guide's choice.
         let u0 = (u_select / alpha).min(1.0 - f32::EPSILON / 2.0);
-        let gs = guide.sample(si.p, hint, [u0, u2.x, u2.y])?;
+        let gs = guide.sample_at(vertex, [u0, u2.x, u2.y])?;
         let wo = si.to_local(gs.direction);
         let f = bsdf.eval(ctx, wi, wo);
         if f == Rgb::ZERO {
