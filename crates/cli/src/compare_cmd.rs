@@ -106,6 +106,7 @@ pub fn run(a: CompareArgs) -> Result<()> {
                     guide_fraction: None,
                     rr: None,
                     no_escaped: false,
+                    no_fallback: false,
                     octree_threshold: None,
                     gmm_k_max: None,
                     gmm_params: Vec::new(),

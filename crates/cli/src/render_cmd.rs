@@ -89,6 +89,11 @@ pub struct GuidingArgs {
     /// Do not train on segments that escaped the scene (Rath et al. drop them).
     #[arg(long)]
     pub no_escaped: bool,
+    /// Keep guiding even where it does not pay (by default a time-budget render that finds unguided
+    /// path tracing over twice as efficient after the first guided iterations renders the rest
+    /// unguided).
+    #[arg(long)]
+    pub no_fallback: bool,
     /// Octree relative split threshold (orth.threshold).
     #[arg(long)]
     pub octree_threshold: Option<f64>,
@@ -311,6 +316,7 @@ pub fn run(a: RenderArgs) -> Result<()> {
                 budget,
                 combine,
                 pretrained: g.load_guide.is_some(),
+                fallback: !g.no_fallback,
             };
             let out = render_guided(
                 &loaded.scene,
@@ -344,6 +350,7 @@ pub fn run(a: RenderArgs) -> Result<()> {
                 "combine": combine,
                 "params": spec.params,
                 "loaded_guide": g.load_guide.as_ref().map(|p| p.display().to_string()),
+                "fallback": out.fallback,
             });
             focal_render::render::RenderOutput {
                 image: out.image,

@@ -25,6 +25,7 @@ fn guided_settings(spp: u32, seed: u64, threads: usize, combine: Combine) -> Gui
         },
         combine,
         pretrained: false,
+        fallback: true,
     }
 }
 

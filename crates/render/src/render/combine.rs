@@ -64,33 +64,46 @@ impl IterationImage {
     }
 }
 
-/// The relative variance estimate v_i of each iteration against `pooled` (`None` below 2 spp).
+/// The relative variance estimate v_i of each iteration against `pooled` (`None` below 2 spp): the
+/// per-sample variance of its two halves divided by its samples per pixel.
 pub fn relative_variances(iterations: &[IterationImage], pooled: &Image) -> Vec<Option<f64>> {
     iterations
         .iter()
         .map(|it| {
-            let (na, nb) = (it.a.1 as f64, it.b.1 as f64);
-            if na == 0.0 || nb == 0.0 {
-                return None;
-            }
-            let n = na + nb;
-            let scale = na * nb / (n * n);
-            let mut sum = 0.0f64;
-            for ((pa, pb), pp) in it.a.0.rgb.iter().zip(&it.b.0.rgb).zip(&pooled.rgb) {
-                let mut d2 = 0.0f64;
-                let mut m = 0.0f64;
-                for c in 0..3 {
-                    let d = pa[c] as f64 - pb[c] as f64;
-                    d2 += d * d;
-                    m += pp[c] as f64;
-                }
-                let m = m / 3.0;
-                sum += d2 / 3.0 * scale / (m * m + RELATIVE_EPSILON);
-            }
-            let v = sum / pooled.rgb.len().max(1) as f64;
-            v.is_finite().then_some(v)
+            per_sample_relative_variance(&it.a.0, it.a.1, &it.b.0, it.b.1, pooled)
+                .map(|v| v / it.spp() as f64)
         })
         .collect()
+}
+
+/// The relative per-sample variance σ² of an estimator, from two independent images of it (`a` with
+/// `na` samples per pixel, `b` with `nb`): Var(A − B) = σ²(1/na + 1/nb) per pixel and channel, each
+/// pixel's divided by pooled² + ε, averaged over the image. `None` if either image has no samples.
+pub fn per_sample_relative_variance(
+    a: &Image,
+    na: u32,
+    b: &Image,
+    nb: u32,
+    pooled: &Image,
+) -> Option<f64> {
+    if na == 0 || nb == 0 {
+        return None;
+    }
+    let scale = 1.0 / (1.0 / na as f64 + 1.0 / nb as f64);
+    let mut sum = 0.0f64;
+    for ((pa, pb), pp) in a.rgb.iter().zip(&b.rgb).zip(&pooled.rgb) {
+        let mut d2 = 0.0f64;
+        let mut m = 0.0f64;
+        for c in 0..3 {
+            let d = pa[c] as f64 - pb[c] as f64;
+            d2 += d * d;
+            m += pp[c] as f64;
+        }
+        let m = m / 3.0;
+        sum += d2 / 3.0 * scale / (m * m + RELATIVE_EPSILON);
+    }
+    let v = sum / pooled.rgb.len().max(1) as f64;
+    v.is_finite().then_some(v)
 }
 
 /// The inverse-variance weights (normalised to sum to 1; 0 for iterations left out). If no iteration has

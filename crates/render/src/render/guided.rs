@@ -9,11 +9,19 @@
 //!   cumulative per-iteration deadlines (every iteration renders at least one pass); the final
 //!   iteration renders until the total budget is spent. Guide updates count against the budget.
 //!
+//! Under a time budget a training iteration whose deadline has passed before it starts is skipped (a
+//! slow guided pass must not push the whole render past its budget), and with `fallback` the render
+//! checks after [`FALLBACK_GUIDED_ITERATIONS`] guided iterations whether guiding pays for its cost at all (see
+//! [`GuidedRenderSettings::fallback`]).
+//!
 //! The guide is updated (record → update) between iterations only; during an iteration it is
 //! read-only. Training segments are handed to the guide after every pass in tile order, so a fixed seed
 //! and sample budget give the same learned model and image whatever the number of threads.
 
-use super::combine::{inverse_variance_weights, weighted_image, Combine, IterationImage};
+use super::combine::{
+    inverse_variance_weights, per_sample_relative_variance, pooled_image, weighted_image, Combine,
+    IterationImage,
+};
 use super::{next_pass_spp, PassRunner, Progress, ProgressCounter, RenderSettings, RenderStats};
 use crate::camera::Camera;
 use crate::film::{FilmSpec, Image};
@@ -24,6 +32,14 @@ use std::time::{Duration, Instant};
 
 /// Pixel samples per pass at most during training, bounding the memory of one pass's segments.
 pub const MAX_TRAINING_PASS_SAMPLES: u64 = 1 << 20;
+
+/// A time-budget render compares guided and unguided efficiency once this many guided training
+/// iterations have rendered.
+pub const FALLBACK_GUIDED_ITERATIONS: usize = 2;
+/// Guiding is given up only if unguided path tracing is more than this many times as efficient
+/// (1 / (per-sample relative variance × time per sample)): the unguided estimate misses rare paths at
+/// a few samples per pixel, which flatters it, and the guide is still young at the check.
+pub const FALLBACK_MARGIN: f64 = 2.0;
 
 /// How long a guided render runs and how it is split into iterations.
 #[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
@@ -62,6 +78,14 @@ pub struct GuidedRenderSettings {
     /// The guide is already trained (loaded from a file): no training iterations, the whole budget is
     /// one guided iteration.
     pub pretrained: bool,
+    /// Give up guiding if it does not pay (time budget and inverse-variance combination only): after
+    /// [`FALLBACK_GUIDED_ITERATIONS`] guided training iterations, the per-sample relative variance of the unguided first
+    /// iteration (from its two halves) and of the guided ones (from the difference of two guided
+    /// iterations) are weighed by their time per sample; if unguided rendering is over
+    /// [`FALLBACK_MARGIN`] times as efficient, training stops and the rest of the budget is rendered
+    /// unguided, without the guide's cost (the Cornell box: guiding costs several times a path tracer's
+    /// time per sample and gains nothing). The output then combines the unguided iterations.
+    pub fallback: bool,
 }
 
 /// What happened in one iteration, for the JSON record.
@@ -89,6 +113,17 @@ pub struct IterationStats {
     pub weight: f64,
 }
 
+/// The outcome of the fallback check ([`GuidedRenderSettings::fallback`]), for the JSON record.
+#[derive(Clone, Copy, Debug, serde::Serialize)]
+pub struct FallbackCheck {
+    /// Relative per-sample variance × seconds per sample of unguided rendering.
+    pub unguided_cost: f64,
+    /// The same for guided rendering.
+    pub guided_cost: f64,
+    /// The render went on unguided.
+    pub fell_back: bool,
+}
+
 /// The result of a guided render.
 pub struct GuidedOutput {
     /// The combined image.
@@ -97,6 +132,40 @@ pub struct GuidedOutput {
     pub stats: RenderStats,
     /// Per-iteration statistics.
     pub iterations: Vec<IterationStats>,
+    /// The fallback check, if it was made.
+    pub fallback: Option<FallbackCheck>,
+}
+
+/// The fallback check after the first guided iterations: the unguided first iteration's per-sample
+/// relative variance from its halves, the guided one from the last two guided iterations' difference,
+/// each times its seconds per sample. `None` if an estimate is missing.
+fn fallback_check(images: &[IterationImage], stats: &[IterationStats]) -> Option<FallbackCheck> {
+    let rendered: Vec<(&IterationImage, &IterationStats)> = images
+        .iter()
+        .zip(stats.iter().filter(|s| s.spp > 0))
+        .collect();
+    let (first, first_stats) = *rendered.first()?;
+    if first_stats.guided {
+        return None;
+    }
+    let guided: Vec<&(&IterationImage, &IterationStats)> =
+        rendered.iter().filter(|(_, s)| s.guided).collect();
+    let [(g1, s1), (g2, s2)] = guided.get(guided.len().checked_sub(2)?..)? else {
+        return None;
+    };
+    let pooled = pooled_image(images);
+    let unguided_var =
+        per_sample_relative_variance(&first.a.0, first.a.1, &first.b.0, first.b.1, &pooled)?;
+    let guided_var =
+        per_sample_relative_variance(&g1.image(), g1.spp(), &g2.image(), g2.spp(), &pooled)?;
+    let per_sample = |s: &IterationStats| s.render_s / s.spp.max(1) as f64;
+    let unguided_cost = unguided_var * per_sample(first_stats);
+    let guided_cost = guided_var * (s1.render_s + s2.render_s) / (s1.spp + s2.spp).max(1) as f64;
+    Some(FallbackCheck {
+        unguided_cost,
+        guided_cost,
+        fell_back: unguided_cost * FALLBACK_MARGIN < guided_cost,
+    })
 }
 
 /// The spp of each training iteration under a sample budget, and the final iteration's.
@@ -132,6 +201,7 @@ pub fn render_guided(
         Spp(u32),
         Until(Instant),
     }
+    let is_past = |plan: &Plan| matches!(plan, Plan::Until(deadline) if Instant::now() >= *deadline);
     let (training_plans, final_plan, total_spp_hint): (Vec<Plan>, Plan, u64) = match settings.budget
     {
         TrainingBudget::Samples {
@@ -184,13 +254,19 @@ pub fn render_guided(
     let mut last_runner_threads = 0;
     let mut rejected = 0u64;
     let mut total_spp = 0u32;
+    let mut fallback: Option<FallbackCheck> = None;
+    let fell_back = |f: &Option<FallbackCheck>| f.is_some_and(|f| f.fell_back);
     let plans = training_plans
         .into_iter()
         .chain(std::iter::once(final_plan));
     for (index, plan) in plans.enumerate() {
         let index = index as u32;
         let training = index < training_iterations;
-        let guided = (index > 0 || settings.pretrained) && guide.is_some();
+        if training && (fell_back(&fallback) || index > 0 && is_past(&plan)) {
+            continue;
+        }
+        let guided =
+            (index > 0 || settings.pretrained) && guide.is_some() && !fell_back(&fallback);
         let mut runner = PassRunner::new(scene, camera, spec, &settings.render, halves);
         last_runner_threads = runner.threads();
         let iter_start = Instant::now();
@@ -230,6 +306,8 @@ pub fn render_guided(
                 Plan::Until(deadline) => match next_pass_spp(pass_spp, count, pass_start, deadline)
                 {
                     Some(n) => n,
+                    // The first iteration gets two samples per pixel, so that its halves give a variance.
+                    None if index == 0 && halves && runner.spp_done() < 2 => 1,
                     None => break,
                 },
             };
@@ -271,9 +349,38 @@ pub fn render_guided(
             update,
             weight: 0.0,
         });
+        let time_budget = matches!(settings.budget, TrainingBudget::Time { .. });
+        if settings.fallback
+            && halves
+            && time_budget
+            && !settings.pretrained
+            && training
+            && fallback.is_none()
+            && stats.iter().filter(|s| s.guided && s.spp > 0).count() == FALLBACK_GUIDED_ITERATIONS
+        {
+            fallback = fallback_check(&images, &stats);
+        }
     }
 
     let weights = match settings.combine {
+        Combine::InverseVariance if fell_back(&fallback) => {
+            // The unguided iterations are one estimator: weight them by their samples.
+            let used: Vec<&IterationStats> = stats.iter().filter(|s| s.spp > 0).collect();
+            let total: f64 = used
+                .iter()
+                .filter(|s| !s.guided)
+                .map(|s| s.spp as f64)
+                .sum();
+            used.iter()
+                .map(|s| {
+                    if s.guided {
+                        0.0
+                    } else {
+                        s.spp as f64 / total
+                    }
+                })
+                .collect()
+        }
         Combine::InverseVariance => {
             // An unguided iteration's heavy-tailed noise (the rare path through a pinhole) is exactly what
             // its two-halves variance estimate misses, so it would get too much weight: once some
@@ -333,5 +440,6 @@ pub fn render_guided(
             threads: last_runner_threads,
         },
         iterations: stats,
+        fallback,
     }
 }
