@@ -61,7 +61,7 @@
   view.width = W; view.height = H;
   // Small renders are shown enlarged (pixelated) so they can be inspected.
   view.style.width = Math.max(W, Math.min(1024, W * Math.max(1, Math.floor(512 / W)))) + "px";
-  const ctx = view.getContext("2d");
+  const ctx = view.getContext("2d", { willReadFrequently: true });
   let crop = { x: Math.floor(W / 2), y: Math.floor(H / 2) };
 
   function scale() { return Math.pow(2, parseFloat(exposure.value)); }

@@ -51,7 +51,13 @@ pub fn write_loglog_svg(
         .x_desc(x_label)
         .y_desc(y_label)
         .y_label_formatter(&|v| format!("{v:.1e}"))
-        .x_label_formatter(&|v| format!("{v:.3}"))
+        .x_label_formatter(&|v| {
+            if *v >= 10.0 {
+                format!("{v:.0}")
+            } else {
+                format!("{v:.3}")
+            }
+        })
         .draw()
         .map_err(|e| err(&e))?;
     for (i, c) in curves.iter().enumerate() {
