@@ -3,6 +3,7 @@
 //! convergence curves (SVG) and an interactive, offline `index.html`.
 
 use crate::convergence_plot::{write_loglog_svg, Curve};
+use crate::flip::{flip_picture, ldr_flip};
 use crate::render_cmd::{self, GuidingArgs, RenderArgs};
 use crate::report_html::{write_report, Figure, ReportPage, ViewerImage};
 use anyhow::{bail, Context, Result};
@@ -87,6 +88,8 @@ struct Row {
     spp: u64,
     seconds: f64,
     errors: ImageErrors,
+    /// Mean LDR-FLIP of the PNG tonemapping (`--exposure`).
+    ldr_flip: f64,
 }
 
 /// Runs `focal compare`.
@@ -160,20 +163,28 @@ pub fn run(a: CompareArgs) -> Result<()> {
                 seconds,
                 errors,
             });
+            let (ldr_flip, flip_map) = ldr_flip(&image, &reference, a.exposure)?;
+            if seed == 0 {
+                let p = a.out.join(format!("{method}_flip.png"));
+                flip_picture(&flip_map)
+                    .write_png(&p, 0.0)
+                    .with_context(|| format!("writing {}", p.display()))?;
+            }
             rows.push(Row {
                 method: method.clone(),
                 seed,
                 spp,
                 seconds,
                 errors,
+                ldr_flip,
             });
         }
     }
     let _ = std::fs::remove_dir(&curve_dir);
-    let mut csv = String::from("method,seed,spp,seconds,rel_mse,mse,mape,smape\n");
+    let mut csv = String::from("method,seed,spp,seconds,rel_mse,mse,mape,smape,ldr_flip\n");
     for r in &rows {
         csv += &format!(
-            "{},{},{},{:.3},{:.6e},{:.6e},{:.6e},{:.6e}\n",
+            "{},{},{},{:.3},{:.6e},{:.6e},{:.6e},{:.6e},{:.6e}\n",
             r.method,
             r.seed,
             r.spp,
@@ -181,7 +192,8 @@ pub fn run(a: CompareArgs) -> Result<()> {
             r.errors.rel_mse,
             r.errors.mse,
             r.errors.mape,
-            r.errors.smape
+            r.errors.smape,
+            r.ldr_flip
         );
     }
     std::fs::write(a.out.join("metrics.csv"), csv)?;
@@ -227,6 +239,7 @@ pub fn run(a: CompareArgs) -> Result<()> {
         "MSE",
         "MAPE",
         "SMAPE",
+        "LDR-FLIP",
         "relMSE / first",
     ];
     let base = summaries.first().map_or(1.0, |s| s.rel_mse_mean);
@@ -244,6 +257,7 @@ pub fn run(a: CompareArgs) -> Result<()> {
                 format!("{:.4e}", s.mse),
                 format!("{:.4}", s.mape),
                 format!("{:.4}", s.smape),
+                format!("{:.4}", s.ldr_flip),
                 format!("{:.3}", s.rel_mse_mean / base),
             ]
         })
@@ -407,6 +421,19 @@ pub fn run(a: CompareArgs) -> Result<()> {
                     })
                     .collect(),
             ),
+            (
+                "LDR-FLIP error maps (seed 0)".to_string(),
+                methods
+                    .iter()
+                    .map(|m| Figure {
+                        src: format!("{m}_flip.png"),
+                        caption: format!(
+                            "{m}: LDR-FLIP of the PNG tonemapping (exposure {}), magma: black = none",
+                            a.exposure
+                        ),
+                    })
+                    .collect(),
+            ),
             ("What the guides learned (seed 0)".to_string(), guides),
         ],
         exposure: a.exposure,
@@ -433,6 +460,7 @@ struct Summary {
     mse: f64,
     mape: f64,
     smape: f64,
+    ldr_flip: f64,
 }
 
 fn summarise(method: &str, rows: &[Row]) -> Summary {
@@ -463,11 +491,18 @@ fn summarise(method: &str, rows: &[Row]) -> Summary {
         mse: mean(&|r| r.errors.mse),
         mape: mean(&|r| r.errors.mape),
         smape: mean(&|r| r.errors.smape),
+        ldr_flip: mean(&|r| r.ldr_flip),
     }
 }
 
 /// The `focal render` arguments of one run of `method`.
-fn run_args(a: &CompareArgs, method: &str, seed: u64, output: &Path, guide_image: bool) -> RenderArgs {
+fn run_args(
+    a: &CompareArgs,
+    method: &str,
+    seed: u64,
+    output: &Path,
+    guide_image: bool,
+) -> RenderArgs {
     RenderArgs {
         scene: a.scene.clone(),
         output: Some(output.to_path_buf()),

@@ -26,7 +26,9 @@ pub fn write_loglog_svg(
         .flat_map(|c| c.points.iter().filter(positive).copied())
         .collect();
     let range = |v: &mut dyn Iterator<Item = f64>| {
-        let (lo, hi) = v.fold((f64::INFINITY, 0.0f64), |(lo, hi), x| (lo.min(x), hi.max(x)));
+        let (lo, hi) = v.fold((f64::INFINITY, 0.0f64), |(lo, hi), x| {
+            (lo.min(x), hi.max(x))
+        });
         if lo.is_finite() && hi > 0.0 {
             // A decade-aligned margin so single points and flat lines still get an axis.
             (lo / 1.5, (hi * 1.5).max(lo * 2.0))
@@ -67,7 +69,9 @@ pub fn write_loglog_svg(
             .draw_series(LineSeries::new(pts.clone(), colour.stroke_width(2)))
             .map_err(|e| err(&e))?
             .label(c.name.clone())
-            .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], colour.stroke_width(2)));
+            .legend(move |(x, y)| {
+                PathElement::new(vec![(x, y), (x + 20, y)], colour.stroke_width(2))
+            });
         chart
             .draw_series(pts.iter().map(|&p| Circle::new(p, 3, colour.filled())))
             .map_err(|e| err(&e))?;

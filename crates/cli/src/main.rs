@@ -3,11 +3,12 @@
 mod bench;
 mod compare_cmd;
 mod convergence_plot;
+mod flip;
 mod merge_cmd;
 mod metrics_cmd;
 mod reference_cmd;
-mod report_html;
 mod render_cmd;
+mod report_html;
 
 use clap::{Parser, Subcommand};
 use std::process::ExitCode;
@@ -28,7 +29,7 @@ enum Command {
     Bench(bench::BenchArgs),
     /// Render a scene with several methods at equal time or spp and tabulate their errors.
     Compare(compare_cmd::CompareArgs),
-    /// Error metrics (relMSE, MSE, MAPE, SMAPE) of an image against a reference.
+    /// Error metrics (relMSE, MSE, MAPE, SMAPE, LDR-FLIP) of an image against a reference.
     Metrics(metrics_cmd::MetricsArgs),
     /// A long, resumable (checkpointed) unguided reference render with its per-pixel variance.
     Reference(reference_cmd::ReferenceArgs),

@@ -65,8 +65,8 @@ pub fn run(a: MergeArgs) -> Result<()> {
     if distinct.len() < seeds.len() {
         eprintln!("warning: some inputs share a seed; their noise is not independent");
     }
-    let merged = merge_images(&inputs)
-        .map_err(|e| anyhow::anyhow!("{e} (inputs in the order given)"))?;
+    let merged =
+        merge_images(&inputs).map_err(|e| anyhow::anyhow!("{e} (inputs in the order given)"))?;
     merged
         .write_exr(&a.output)
         .with_context(|| format!("writing {}", a.output.display()))?;

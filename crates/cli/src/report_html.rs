@@ -66,7 +66,11 @@ fn encode_f16(image: &Image) -> String {
     let mut bytes = Vec::with_capacity(image.rgb.len() * 6);
     for p in &image.rgb {
         for &v in p {
-            let v = if v.is_finite() { v.clamp(0.0, 65000.0) } else { 0.0 };
+            let v = if v.is_finite() {
+                v.clamp(0.0, 65000.0)
+            } else {
+                0.0
+            };
             bytes.extend_from_slice(&half::f16::from_f32(v).to_le_bytes());
         }
     }
@@ -132,7 +136,11 @@ pub fn write_report(dir: &Path, page: &ReportPage) -> Result<()> {
         if figs.is_empty() {
             continue;
         }
-        let _ = writeln!(html, "<section><h2>{}</h2><div class=\"figures\">", esc(heading));
+        let _ = writeln!(
+            html,
+            "<section><h2>{}</h2><div class=\"figures\">",
+            esc(heading)
+        );
         for f in figs {
             let _ = writeln!(
                 html,

@@ -34,8 +34,19 @@ fn reference_args<'a>(out: &'a str, spp: &'a str) -> Vec<&'a str> {
     let s = scene();
     let s: &'static str = Box::leak(s.to_str().unwrap().to_string().into_boxed_str());
     vec![
-        "reference", s, "-D", "res=16", "--spp", spp, "--pass-spp", "4", "--checkpoint-every",
-        "0", "-q", "-o", out,
+        "reference",
+        s,
+        "-D",
+        "res=16",
+        "--spp",
+        spp,
+        "--pass-spp",
+        "4",
+        "--checkpoint-every",
+        "0",
+        "-q",
+        "-o",
+        out,
     ]
 }
 
@@ -163,7 +174,10 @@ fn merge_weights_by_sample_count_and_reports_mismatches() {
             .output()
             .unwrap();
         let err = String::from_utf8_lossy(&o.stderr);
-        assert!(!o.status.success() && err.contains(words), "{args:?}: {err}");
+        assert!(
+            !o.status.success() && err.contains(words),
+            "{args:?}: {err}"
+        );
         assert!(!err.contains("panicked"), "{err}");
     };
     let wide = write_render(&d, "wide", [1.0; 3], 1, 3);

@@ -47,15 +47,42 @@ fn report_opens_in_chromium_and_its_slider_switches_images() {
     let reference = d.join("ref.exr");
     let r = reference.to_str().unwrap();
     focal(&[
-        "reference", scene, "-D", "res=16", "--spp", "32", "--pass-spp", "8", "-q", "-o", r,
+        "reference",
+        scene,
+        "-D",
+        "res=16",
+        "--spp",
+        "32",
+        "--pass-spp",
+        "8",
+        "-q",
+        "-o",
+        r,
     ]);
     let out = d.join("report");
     let o = out.to_str().unwrap();
     focal(&[
-        "compare", scene, "-D", "res=16", "--spp", "4", "--methods", "pt,octree",
-        "--curve-points", "2", "--reference", r, "--out", o,
+        "compare",
+        scene,
+        "-D",
+        "res=16",
+        "--spp",
+        "4",
+        "--methods",
+        "pt,octree",
+        "--curve-points",
+        "2",
+        "--reference",
+        r,
+        "--out",
+        o,
     ]);
-    for f in ["index.html", "convergence_time.svg", "convergence_spp.svg", "data/reference.js"] {
+    for f in [
+        "index.html",
+        "convergence_time.svg",
+        "convergence_spp.svg",
+        "data/reference.js",
+    ] {
         assert!(out.join(f).exists(), "{f} missing");
     }
     let url = format!("file://{}#selftest", out.join("index.html").display());

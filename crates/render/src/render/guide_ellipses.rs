@@ -98,7 +98,8 @@ fn convex_hull(mut pts: Vec<Vec2>) -> Vec<Vec2> {
             Box::new(pts.iter().rev())
         };
         for &p in iter {
-            while hull.len() >= start + 2 && cross(hull[hull.len() - 2], hull[hull.len() - 1], p) <= 0.0
+            while hull.len() >= start + 2
+                && cross(hull[hull.len() - 2], hull[hull.len() - 1], p) <= 0.0
             {
                 hull.pop();
             }
@@ -115,7 +116,13 @@ pub fn ellipse_overlay(base: &Image, components: &[ProjectedComponent]) -> Image
     let mut out = base.clone();
     out.layers.clear();
     for p in &mut out.rgb {
-        *p = p.map(|v| if v.is_finite() { v.clamp(0.0, 1.0) * 0.5 } else { 0.0 });
+        *p = p.map(|v| {
+            if v.is_finite() {
+                v.clamp(0.0, 1.0) * 0.5
+            } else {
+                0.0
+            }
+        });
     }
     let max_w = components.iter().map(|c| c.weight).fold(0.0, f64::max);
     let mut order: Vec<&ProjectedComponent> = components.iter().collect();
@@ -132,8 +139,18 @@ pub fn ellipse_overlay(base: &Image, components: &[ProjectedComponent]) -> Image
             draw_line(&mut out, c.outline[i], c.outline[(i + 1) % n], colour);
         }
         if let Some(m) = c.mean {
-            draw_line(&mut out, m - Vec2::new(3.0, 0.0), m + Vec2::new(3.0, 0.0), colour);
-            draw_line(&mut out, m - Vec2::new(0.0, 3.0), m + Vec2::new(0.0, 3.0), colour);
+            draw_line(
+                &mut out,
+                m - Vec2::new(3.0, 0.0),
+                m + Vec2::new(3.0, 0.0),
+                colour,
+            );
+            draw_line(
+                &mut out,
+                m - Vec2::new(0.0, 3.0),
+                m + Vec2::new(0.0, 3.0),
+                colour,
+            );
         }
     }
     out
@@ -202,7 +219,12 @@ mod tests {
     #[test]
     fn lines_are_clipped_to_the_image() {
         let mut img = Image::new(4, 4);
-        draw_line(&mut img, Vec2::new(-100.0, 1.5), Vec2::new(100.0, 1.5), [1.0; 3]);
+        draw_line(
+            &mut img,
+            Vec2::new(-100.0, 1.5),
+            Vec2::new(100.0, 1.5),
+            [1.0; 3],
+        );
         let row: Vec<f32> = (0..4).map(|x| img.pixel(x, 1)[0]).collect();
         assert_eq!(row, vec![1.0; 4]);
         assert_eq!(img.pixel(0, 0)[0], 0.0);

@@ -86,7 +86,10 @@ pub fn octree_slice(guide: &FocalOctreeGuide, plane: SlicePlane, resolution: u32
     };
     let mut density = Image::new(w, h);
     let shares = [1.0 - guide.p_div(), guide.p_div()];
-    for (tree, share) in [guide.converging(), guide.diverging()].into_iter().zip(shares) {
+    for (tree, share) in [guide.converging(), guide.diverging()]
+        .into_iter()
+        .zip(shares)
+    {
         for leaf in tree.leaves() {
             let (min, max) = leaf_box(tree, leaf.depth, leaf.cell);
             // Leaves are half-open boxes; the plane lies in exactly one leaf along its axis.
@@ -97,7 +100,8 @@ pub fn octree_slice(guide: &FocalOctreeGuide, plane: SlicePlane, resolution: u32
                 continue;
             }
             let value = (share * leaf.density as f64) as f32;
-            let to_px = |x: f64, lo_: f64, e: f64, n: u32| ((x - lo_) / e * n as f64).round() as i64;
+            let to_px =
+                |x: f64, lo_: f64, e: f64, n: u32| ((x - lo_) / e * n as f64).round() as i64;
             let x0 = to_px(min[u], lo[u], eu, w).clamp(0, w as i64);
             let x1 = to_px(max[u], lo[u], eu, w).clamp(0, w as i64);
             // Image rows run from the top (maximum v) down.

@@ -102,7 +102,10 @@ pub fn fnv1a64(parts: &[&[u8]]) -> u64 {
 }
 
 fn invalid(path: &Path, msg: impl std::fmt::Display) -> io::Error {
-    io::Error::new(io::ErrorKind::InvalidData, format!("{}: {msg}", path.display()))
+    io::Error::new(
+        io::ErrorKind::InvalidData,
+        format!("{}: {msg}", path.display()),
+    )
 }
 
 fn read_checkpoint(path: &Path) -> io::Result<Option<Checkpoint>> {
@@ -114,7 +117,10 @@ fn read_checkpoint(path: &Path) -> io::Result<Option<Checkpoint>> {
     let c: Checkpoint = postcard::from_bytes(&bytes)
         .map_err(|e| invalid(path, format!("not a focal reference checkpoint: {e}")))?;
     if c.magic != CHECKPOINT_MAGIC || c.version != CHECKPOINT_VERSION {
-        return Err(invalid(path, "not a focal reference checkpoint of this version"));
+        return Err(invalid(
+            path,
+            "not a focal reference checkpoint of this version",
+        ));
     }
     Ok(Some(c))
 }
