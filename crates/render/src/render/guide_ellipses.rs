@@ -201,6 +201,54 @@ fn clip_segment(a: Vec2, b: Vec2, lo: Vec2, hi: Vec2) -> Option<(Vec2, Vec2)> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::camera::Projection;
+    use focal_guiding::gmm::{Gaussian3, Sym3};
+    use focal_guiding::{Aabb3, GmmConfig};
+    use glam::{Mat4, UVec2, Vec3};
+
+    #[test]
+    fn a_sphere_in_front_of_the_camera_projects_to_the_right_circle() {
+        // Camera at the origin looking along +Z, 64 px wide, 90° field of view: focal length 32 px.
+        let camera = Camera::Perspective(Projection::new(
+            Mat4::IDENTITY,
+            UVec2::new(64, 64),
+            90.0,
+            0.01,
+            100.0,
+        ));
+        let spec = FilmSpec {
+            width: 64,
+            height: 64,
+            crop_size: UVec2::new(64, 64),
+            ..FilmSpec::default()
+        };
+        // σ = 0.5, so the 2σ ellipsoid is the unit sphere at distance 5: its silhouette has angular
+        // radius asin(1/5), i.e. 32 · tan(asin(0.2)) = 6.532 px around the image centre.
+        let g = Gaussian3::new(DVec3::new(0.0, 0.0, 5.0), Sym3::scaled_identity(0.25)).unwrap();
+        let mix = Mixture::new(&[1.0], vec![g]).unwrap();
+        let aabb = Aabb3 {
+            min: Vec3::splat(-10.0),
+            max: Vec3::splat(10.0),
+        };
+        let guide = GmmGuide::from_mixtures(aabb, GmmConfig::default(), &mix, &mix, 0.25).unwrap();
+        let comps = project_components(&camera, &spec, &guide);
+        let conv: Vec<_> = comps.iter().filter(|c| !c.diverging).collect();
+        assert_eq!(conv.len(), 1);
+        assert!((conv[0].weight - 0.75).abs() < 1e-9);
+        let centre = Vec2::splat(32.0);
+        assert!((conv[0].mean.unwrap() - centre).length() < 1e-3);
+        let expect = 32.0 * (0.2f32.asin()).tan();
+        assert!(conv[0].outline.len() > 16);
+        for p in &conv[0].outline {
+            let r = (*p - centre).length();
+            assert!((r - expect).abs() < 0.05 * expect, "{r} vs {expect}");
+        }
+        // The overlay marks the outline and leaves far pixels at the darkened image.
+        let base = Image::new(64, 64);
+        let img = ellipse_overlay(&base, &comps);
+        assert_ne!(img.pixel(32 + expect as u32, 32), [0.0; 3]);
+        assert_eq!(img.pixel(2, 2), [0.0; 3]);
+    }
 
     #[test]
     fn hull_of_a_square_with_an_inner_point() {

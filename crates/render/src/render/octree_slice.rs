@@ -128,3 +128,32 @@ pub fn octree_slice(guide: &FocalOctreeGuide, plane: SlicePlane, resolution: u32
 pub fn octree_slice_picture(slice: &OctreeSlice) -> Image {
     false_colour_log(&slice.density, 4.0)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use focal_guiding::octree::OctreeGuideConfig;
+    use focal_guiding::Aabb3;
+
+    #[test]
+    fn slice_has_the_box_aspect_and_faces_the_camera() {
+        let aabb = Aabb3 {
+            min: Vec3::new(0.0, 0.0, 0.0),
+            max: Vec3::new(2.0, 1.0, 1.0),
+        };
+        let guide = FocalOctreeGuide::new(aabb, OctreeGuideConfig::default()).unwrap();
+        let plane = default_plane(&guide, Vec3::new(0.1, -0.2, 0.9));
+        assert_eq!(plane.axis, 2);
+        assert!(plane.position > 0.0 && plane.position < 1.0);
+        let slice = octree_slice(&guide, plane, 64);
+        assert_eq!((slice.density.width, slice.density.height), (64, 32));
+        assert_eq!(slice.axes, (0, 1));
+        // Every pixel lies in exactly one leaf per tree: no gaps, no double counting, so an untrained
+        // (uniform) guide gives one value everywhere.
+        let first = slice.density.rgb[0][0];
+        assert!(slice.density.rgb.iter().all(|p| p[0] == first));
+        assert!(first.is_finite() && first > 0.0, "{first}");
+        let pic = octree_slice_picture(&slice);
+        assert_eq!(pic.rgb.len(), slice.density.rgb.len());
+    }
+}
