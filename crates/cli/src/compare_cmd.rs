@@ -100,6 +100,21 @@ pub fn run(a: CompareArgs) -> Result<()> {
     let reference = Image::read_exr(&a.reference)
         .with_context(|| format!("reading {}", a.reference.display()))?;
     std::fs::create_dir_all(&a.out).with_context(|| format!("creating {}", a.out.display()))?;
+    // A reference rendered with one of the runs' seeds shares their first samples: its error would be
+    // too small for the unguided methods.
+    if let Some(seed) = std::fs::read_to_string(a.reference.with_extension("json"))
+        .ok()
+        .and_then(|t| serde_json::from_str::<serde_json::Value>(&t).ok())
+        .and_then(|v| v["seed"].as_u64())
+    {
+        if seed < a.seeds {
+            eprintln!(
+                "warning: the reference was rendered with seed {seed}, which the runs use too; \
+                 its noise is correlated with theirs (render references with `focal reference`, \
+                 whose default seed avoids this)"
+            );
+        }
+    }
     let methods: Vec<String> = a.methods.split(',').map(|m| m.trim().to_string()).collect();
     let mut rows = Vec::new();
     if a.curve_points == 0 {

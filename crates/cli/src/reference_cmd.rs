@@ -15,6 +15,9 @@ use indicatif::{ProgressBar, ProgressStyle};
 use std::path::PathBuf;
 use std::time::Duration;
 
+/// The default seed of reference renders.
+pub const REFERENCE_SEED: u64 = 0x5eed_0000_0000_0001;
+
 /// Arguments of `focal reference`.
 #[derive(Args, Debug, Clone)]
 pub struct ReferenceArgs {
@@ -37,8 +40,9 @@ pub struct ReferenceArgs {
     /// a render into time slots).
     #[arg(long)]
     pub stop_after_passes: Option<u32>,
-    /// Random seed.
-    #[arg(long, default_value_t = 0)]
+    /// Random seed. The default lies far from the seeds `focal render` and `compare` use (0, 1, ...),
+    /// so the reference's noise is independent of the renders it judges (a shared seed shares samples).
+    #[arg(long, default_value_t = REFERENCE_SEED)]
     pub seed: u64,
     /// Worker threads (the result does not depend on it).
     #[arg(long, default_value_t = 0)]
