@@ -53,13 +53,8 @@ pub fn write_loglog_svg(
         .x_desc(x_label)
         .y_desc(y_label)
         .y_label_formatter(&|v| format!("{v:.1e}"))
-        .x_label_formatter(&|v| {
-            if *v >= 10.0 {
-                format!("{v:.0}")
-            } else {
-                format!("{v:.3}")
-            }
-        })
+        .x_labels(8)
+        .x_label_formatter(&|v| tick(*v))
         .draw()
         .map_err(|e| err(&e))?;
     for (i, c) in curves.iter().enumerate() {
@@ -85,4 +80,46 @@ pub fn write_loglog_svg(
         .map_err(|e| err(&e))?;
     root.present().map_err(|e| err(&e))?;
     Ok(())
+}
+
+/// A short tick label: integers above 10, otherwise up to three decimals without trailing zeros.
+fn tick(v: f64) -> String {
+    if v >= 10.0 {
+        format!("{v:.0}")
+    } else {
+        let s = format!("{v:.3}");
+        s.trim_end_matches('0').trim_end_matches('.').to_string()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn ticks_are_short() {
+        assert_eq!(tick(4.0), "4");
+        assert_eq!(tick(0.25), "0.25");
+        assert_eq!(tick(120.4), "120");
+    }
+
+    #[test]
+    fn svg_has_one_line_per_method() {
+        let d = std::env::temp_dir().join(format!("focal-plot-{}.svg", std::process::id()));
+        let curves = [
+            Curve {
+                name: "pt".into(),
+                points: vec![(1.0, 0.1), (2.0, 0.05)],
+            },
+            Curve {
+                name: "gmm".into(),
+                points: vec![(1.0, 0.02), (2.0, 0.0)],
+            },
+        ];
+        write_loglog_svg(&d, "t", "x", "y", &curves).unwrap();
+        let svg = std::fs::read_to_string(&d).unwrap();
+        let _ = std::fs::remove_file(&d);
+        assert!(svg.starts_with("<svg") && svg.contains("pt") && svg.contains("gmm"));
+        assert!(svg.matches("<polyline").count() >= 2, "{svg}");
+    }
 }
