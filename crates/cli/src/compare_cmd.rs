@@ -1,7 +1,11 @@
 //! `focal compare`: renders a scene with several methods at equal time (or equal spp) and several seeds,
-//! and tabulates their errors against a reference.
+//! and tabulates their errors against a reference: images, false-colour error images, metrics CSV/JSON,
+//! convergence curves (SVG) and an interactive, offline `index.html`.
 
+use crate::convergence_plot::{write_loglog_svg, Curve};
+use crate::flip::{flip_picture, ldr_flip};
 use crate::render_cmd::{self, GuidingArgs, RenderArgs};
+use crate::report_html::{write_report, Figure, ReportPage, ViewerImage};
 use anyhow::{bail, Context, Result};
 use clap::Args;
 use focal_render::color::srgb_to_linear;
@@ -58,6 +62,22 @@ pub struct CompareArgs {
     /// How guided iterations are combined: variance or last.
     #[arg(long, default_value = "variance")]
     pub combine: String,
+    /// Points on the convergence curves: independent runs at the budget / 2^k for k = K−1 … 0 (the last
+    /// is the main run); 1 draws no curve beyond the main runs.
+    #[arg(long, default_value_t = 4)]
+    pub curve_points: u32,
+}
+
+/// One point of a convergence curve: a whole run of a method at a fraction of the budget.
+#[derive(serde::Serialize)]
+struct CurvePoint {
+    method: String,
+    seed: u64,
+    /// k of budget / 2^k.
+    budget_halvings: u32,
+    spp: u64,
+    seconds: f64,
+    errors: ImageErrors,
 }
 
 /// One render's numbers.
@@ -68,6 +88,8 @@ struct Row {
     spp: u64,
     seconds: f64,
     errors: ImageErrors,
+    /// Mean LDR-FLIP of the PNG tonemapping (`--exposure`).
+    ldr_flip: f64,
 }
 
 /// Runs `focal compare`.
@@ -78,43 +100,60 @@ pub fn run(a: CompareArgs) -> Result<()> {
     let reference = Image::read_exr(&a.reference)
         .with_context(|| format!("reading {}", a.reference.display()))?;
     std::fs::create_dir_all(&a.out).with_context(|| format!("creating {}", a.out.display()))?;
+    // A reference rendered with one of the runs' seeds shares their first samples: its error would be
+    // too small for the unguided methods.
+    if let Some(seed) = std::fs::read_to_string(a.reference.with_extension("json"))
+        .ok()
+        .and_then(|t| serde_json::from_str::<serde_json::Value>(&t).ok())
+        .and_then(|v| v["seed"].as_u64())
+    {
+        if seed < a.seeds {
+            eprintln!(
+                "warning: the reference was rendered with seed {seed}, which the runs use too; \
+                 its noise is correlated with theirs (render references with `focal reference`, \
+                 whose default seed avoids this)"
+            );
+        }
+    }
     let methods: Vec<String> = a.methods.split(',').map(|m| m.trim().to_string()).collect();
     let mut rows = Vec::new();
+    if a.curve_points == 0 {
+        bail!("--curve-points must be at least 1");
+    }
+    let curve_dir = a.out.join("curves");
+    let mut curve = Vec::new();
     for method in &methods {
+        if !matches!(method.as_str(), "pt" | "none" | "octree" | "gmm") {
+            bail!("unknown method '{method}' (pt, none, octree or gmm)");
+        }
         for seed in 0..a.seeds {
+            // Smaller budgets first: independent, complete runs (training included) whose output is what
+            // the method returns when given that budget.
+            for k in (1..a.curve_points).rev() {
+                std::fs::create_dir_all(&curve_dir)
+                    .with_context(|| format!("creating {}", curve_dir.display()))?;
+                let output = curve_dir.join(format!("{method}_s{seed}_k{k}.exr"));
+                let mut args = run_args(&a, method, seed, &output, false);
+                args.png = false;
+                args.spp = a.spp.map(|n| (n >> k).max(1));
+                args.time = a.time.map(|t| t / (1u64 << k) as f64);
+                render_cmd::run(args).with_context(|| format!("rendering with {method}"))?;
+                let (errors, spp, seconds) = judge(&output, &reference, &a)?;
+                for ext in ["exr", "json"] {
+                    let _ = std::fs::remove_file(output.with_extension(ext));
+                }
+                curve.push(CurvePoint {
+                    method: method.clone(),
+                    seed,
+                    budget_halvings: k,
+                    spp,
+                    seconds,
+                    errors,
+                });
+            }
             let output = a.out.join(format!("{method}_s{seed}.exr"));
-            let args = RenderArgs {
-                scene: a.scene.clone(),
-                output: Some(output.clone()),
-                spp: a.spp,
-                time: a.time,
-                threads: a.threads,
-                seed,
-                defines: a.defines.clone(),
-                png: true,
-                exposure: a.exposure,
-                aovs: false,
-                integrator: (method == "pt").then(|| "path".to_string()),
-                sampler: None,
-                lenient: false,
-                quiet: true,
-                guiding: GuidingArgs {
-                    guiding: (method != "pt").then(|| method.clone()),
-                    iterations: a.iterations,
-                    train_fraction: a.train_fraction,
-                    combine: a.combine.clone(),
-                    guide_fraction: None,
-                    rr: None,
-                    no_escaped: false,
-                    no_fallback: false,
-                    octree_threshold: None,
-                    gmm_k_max: None,
-                    gmm_params: Vec::new(),
-                    save_guide: None,
-                    load_guide: None,
-                    guide_image: seed == 0 && method != "pt" && method != "none",
-                },
-            };
+            let guide_image = seed == 0 && method != "pt" && method != "none";
+            let args = run_args(&a, method, seed, &output, guide_image);
             render_cmd::run(args).with_context(|| format!("rendering with {method}"))?;
             let image = Image::read_exr(&output)?;
             let errors = image_errors(&image, &reference, a.epsilon, a.outliers)
@@ -129,19 +168,38 @@ pub fn run(a: CompareArgs) -> Result<()> {
                     &a.out.join(format!("{method}_relmse.png")),
                 )?;
             }
+            let spp = sidecar["spp"].as_u64().unwrap_or(0);
+            let seconds = sidecar["render_s"].as_f64().unwrap_or(0.0);
+            curve.push(CurvePoint {
+                method: method.clone(),
+                seed,
+                budget_halvings: 0,
+                spp,
+                seconds,
+                errors,
+            });
+            let (ldr_flip, flip_map) = ldr_flip(&image, &reference, a.exposure)?;
+            if seed == 0 {
+                let p = a.out.join(format!("{method}_flip.png"));
+                flip_picture(&flip_map)
+                    .write_png(&p, 0.0)
+                    .with_context(|| format!("writing {}", p.display()))?;
+            }
             rows.push(Row {
                 method: method.clone(),
                 seed,
-                spp: sidecar["spp"].as_u64().unwrap_or(0),
-                seconds: sidecar["render_s"].as_f64().unwrap_or(0.0),
+                spp,
+                seconds,
                 errors,
+                ldr_flip,
             });
         }
     }
-    let mut csv = String::from("method,seed,spp,seconds,rel_mse,mse,mape,smape\n");
+    let _ = std::fs::remove_dir(&curve_dir);
+    let mut csv = String::from("method,seed,spp,seconds,rel_mse,mse,mape,smape,ldr_flip\n");
     for r in &rows {
         csv += &format!(
-            "{},{},{},{:.3},{:.6e},{:.6e},{:.6e},{:.6e}\n",
+            "{},{},{},{:.3},{:.6e},{:.6e},{:.6e},{:.6e},{:.6e}\n",
             r.method,
             r.seed,
             r.spp,
@@ -149,10 +207,28 @@ pub fn run(a: CompareArgs) -> Result<()> {
             r.errors.rel_mse,
             r.errors.mse,
             r.errors.mape,
-            r.errors.smape
+            r.errors.smape,
+            r.ldr_flip
         );
     }
     std::fs::write(a.out.join("metrics.csv"), csv)?;
+    let mut ccsv = String::from("method,seed,budget_halvings,spp,seconds,rel_mse,mse,mape,smape\n");
+    for c in &curve {
+        ccsv += &format!(
+            "{},{},{},{},{:.3},{:.6e},{:.6e},{:.6e},{:.6e}\n",
+            c.method,
+            c.seed,
+            c.budget_halvings,
+            c.spp,
+            c.seconds,
+            c.errors.rel_mse,
+            c.errors.mse,
+            c.errors.mape,
+            c.errors.smape
+        );
+    }
+    std::fs::write(a.out.join("convergence.csv"), ccsv)?;
+    let summaries: Vec<Summary> = methods.iter().map(|m| summarise(m, &rows)).collect();
     std::fs::write(
         a.out.join("metrics.json"),
         serde_json::to_string_pretty(&serde_json::json!({
@@ -163,39 +239,331 @@ pub fn run(a: CompareArgs) -> Result<()> {
             "epsilon": a.epsilon,
             "outliers": a.outliers,
             "runs": rows,
+            "summary": summaries,
+            "convergence": curve,
         }))? + "\n",
     )?;
+    let header = [
+        "method",
+        "seeds",
+        "spp",
+        "seconds",
+        "relMSE mean",
+        "relMSE std",
+        "relMSE median",
+        "MSE",
+        "MAPE",
+        "SMAPE",
+        "LDR-FLIP",
+        "relMSE / first",
+    ];
+    let base = summaries.first().map_or(1.0, |s| s.rel_mse_mean);
+    let table_rows: Vec<Vec<String>> = summaries
+        .iter()
+        .map(|s| {
+            vec![
+                s.method.clone(),
+                s.seeds.to_string(),
+                format!("{:.0}", s.spp),
+                format!("{:.2}", s.seconds),
+                format!("{:.4e}", s.rel_mse_mean),
+                format!("{:.2e}", s.rel_mse_std),
+                format!("{:.4e}", s.rel_mse_median),
+                format!("{:.4e}", s.mse),
+                format!("{:.4}", s.mape),
+                format!("{:.4}", s.smape),
+                format!("{:.4}", s.ldr_flip),
+                format!("{:.3}", s.rel_mse_mean / base),
+            ]
+        })
+        .collect();
     println!(
         "{:<8} {:>6} {:>8} {:>13} {:>13} {:>10} {:>10}",
         "method", "seeds", "spp", "relMSE(mean)", "relMSE(med)", "MAPE", "vs first"
     );
-    let mut first = None;
-    for method in &methods {
-        let rs: Vec<&Row> = rows.iter().filter(|r| &r.method == method).collect();
-        let mut rel: Vec<f64> = rs.iter().map(|r| r.errors.rel_mse).collect();
-        rel.sort_by(f64::total_cmp);
-        let mean = rel.iter().sum::<f64>() / rel.len() as f64;
-        let median = rel[rel.len() / 2];
-        let mape = rs.iter().map(|r| r.errors.mape).sum::<f64>() / rs.len() as f64;
-        let spp = rs.iter().map(|r| r.spp).sum::<u64>() / rs.len() as u64;
-        let base = *first.get_or_insert(mean);
+    for s in &summaries {
         println!(
-            "{:<8} {:>6} {:>8} {:>13.4e} {:>13.4e} {:>10.4} {:>10.3}",
-            method,
-            rs.len(),
-            spp,
-            mean,
-            median,
-            mape,
-            mean / base
+            "{:<8} {:>6} {:>8.0} {:>13.4e} {:>13.4e} {:>10.4} {:>10.3}",
+            s.method,
+            s.seeds,
+            s.spp,
+            s.rel_mse_mean,
+            s.rel_mse_median,
+            s.mape,
+            s.rel_mse_mean / base
         );
     }
+
+    // Convergence curves: per method and budget, the mean over seeds of the error and of the budget used.
+    let curves = |x: &dyn Fn(&CurvePoint) -> f64| -> Vec<Curve> {
+        methods
+            .iter()
+            .map(|m| Curve {
+                name: m.clone(),
+                points: (0..a.curve_points)
+                    .rev()
+                    .filter_map(|k| {
+                        let pts: Vec<&CurvePoint> = curve
+                            .iter()
+                            .filter(|c| &c.method == m && c.budget_halvings == k)
+                            .collect();
+                        (!pts.is_empty()).then(|| {
+                            let n = pts.len() as f64;
+                            (
+                                pts.iter().map(|c| x(c)).sum::<f64>() / n,
+                                pts.iter().map(|c| c.errors.rel_mse).sum::<f64>() / n,
+                            )
+                        })
+                    })
+                    .collect(),
+            })
+            .collect()
+    };
+    let y_label = format!("relMSE (ε = {}), mean over {} seed(s)", a.epsilon, a.seeds);
+    write_loglog_svg(
+        &a.out.join("convergence_time.svg"),
+        "error vs time (training included)",
+        "seconds",
+        &y_label,
+        &curves(&|c| c.seconds),
+    )?;
+    write_loglog_svg(
+        &a.out.join("convergence_spp.svg"),
+        "error vs samples per pixel",
+        "spp",
+        &y_label,
+        &curves(&|c| c.spp as f64),
+    )?;
+
+    // The page.
+    reference
+        .write_png(&a.out.join("reference.png"), a.exposure)
+        .context("writing reference.png")?;
+    let mut seed0 = Vec::new();
+    for m in &methods {
+        seed0.push(Image::read_exr(&a.out.join(format!("{m}_s0.exr")))?);
+    }
+    let mut images = vec![ViewerImage {
+        key: "reference".to_string(),
+        label: "reference".to_string(),
+        png: "reference.png".to_string(),
+        image: &reference,
+    }];
+    for (m, im) in methods.iter().zip(&seed0) {
+        images.push(ViewerImage {
+            key: m.clone(),
+            label: format!("{m} (seed 0)"),
+            png: format!("{m}_s0.png"),
+            image: im,
+        });
+    }
+    let budget = match (a.time, a.spp) {
+        (Some(t), Some(n)) => format!("equal time: {t} s per run (at most {n} spp)"),
+        (Some(t), None) => format!("equal time: {t} s per run"),
+        (None, Some(n)) => format!("equal samples: {n} spp per run"),
+        (None, None) => unreachable!("checked above"),
+    };
+    let mut guides = Vec::new();
+    for m in &methods {
+        let pdf = format!("{m}_s0.guide.png");
+        if a.out.join(&pdf).exists() {
+            guides.push(Figure {
+                src: pdf,
+                caption: format!(
+                    "{m}: guide pdf at the camera along each pixel's ray (log scale, 4 decades)"
+                ),
+            });
+        }
+        let structure = format!("{m}_s0.guide_structure.png");
+        if a.out.join(&structure).exists() {
+            let caption = std::fs::read_to_string(a.out.join(format!("{m}_s0.json")))
+                .ok()
+                .and_then(|t| serde_json::from_str::<serde_json::Value>(&t).ok())
+                .and_then(|v| v["guiding"]["structure_image"].as_str().map(str::to_string))
+                .unwrap_or_default();
+            guides.push(Figure {
+                src: structure,
+                caption: format!("{m}: {caption}"),
+            });
+        }
+    }
+    let page = ReportPage {
+        title: format!("focal compare: {}", a.scene.display()),
+        summary: vec![
+            format!(
+                "{budget}, training included; methods {}; {} seed(s); reference {}.",
+                methods.join(", "),
+                a.seeds,
+                a.reference.display()
+            ),
+            format!(
+                "relMSE = mean of (x − r)² / (r² + ε) over pixels and channels with ε = {}{}. \
+                 Convergence points are independent complete runs at 1/2^k of the budget \
+                 (k = {} … 0), each the image the method returns given that budget.",
+                a.epsilon,
+                if a.outliers > 0.0 {
+                    format!(", after dropping the {}% largest per-pixel errors", a.outliers * 100.0)
+                } else {
+                    String::new()
+                },
+                a.curve_points - 1
+            ),
+        ],
+        images,
+        table_header: header.iter().map(|h| h.to_string()).collect(),
+        table_rows,
+        sections: vec![
+            (
+                "Convergence".to_string(),
+                vec![
+                    Figure {
+                        src: "convergence_time.svg".to_string(),
+                        caption: "relMSE vs wall time, log-log".to_string(),
+                    },
+                    Figure {
+                        src: "convergence_spp.svg".to_string(),
+                        caption: "relMSE vs spp, log-log".to_string(),
+                    },
+                ],
+            ),
+            (
+                "Per-pixel relMSE (seed 0)".to_string(),
+                methods
+                    .iter()
+                    .map(|m| Figure {
+                        src: format!("{m}_relmse.png"),
+                        caption: format!("{m}: log scale from 1e-4 (dark) to 10 (yellow)"),
+                    })
+                    .collect(),
+            ),
+            (
+                "LDR-FLIP error maps (seed 0)".to_string(),
+                methods
+                    .iter()
+                    .map(|m| Figure {
+                        src: format!("{m}_flip.png"),
+                        caption: format!(
+                            "{m}: LDR-FLIP of the PNG tonemapping (exposure {}), magma: black = none",
+                            a.exposure
+                        ),
+                    })
+                    .collect(),
+            ),
+            ("What the guides learned (seed 0)".to_string(), guides),
+        ],
+        exposure: a.exposure,
+    };
+    write_report(&a.out, &page)?;
     println!(
         "(relMSE with epsilon {}; report in {})",
         a.epsilon,
-        a.out.display()
+        a.out.join("index.html").display()
     );
     Ok(())
+}
+
+/// Per-method aggregates over seeds.
+#[derive(serde::Serialize)]
+struct Summary {
+    method: String,
+    seeds: usize,
+    spp: f64,
+    seconds: f64,
+    rel_mse_mean: f64,
+    rel_mse_std: f64,
+    rel_mse_median: f64,
+    mse: f64,
+    mape: f64,
+    smape: f64,
+    ldr_flip: f64,
+}
+
+fn summarise(method: &str, rows: &[Row]) -> Summary {
+    let rs: Vec<&Row> = rows.iter().filter(|r| r.method == method).collect();
+    let n = rs.len().max(1) as f64;
+    let mean = |f: &dyn Fn(&Row) -> f64| rs.iter().map(|r| f(r)).sum::<f64>() / n;
+    let mut rel: Vec<f64> = rs.iter().map(|r| r.errors.rel_mse).collect();
+    rel.sort_by(f64::total_cmp);
+    let m = mean(&|r| r.errors.rel_mse);
+    let var = if rs.len() > 1 {
+        rel.iter().map(|v| (v - m) * (v - m)).sum::<f64>() / (n - 1.0)
+    } else {
+        0.0
+    };
+    let median = match rel.len() {
+        0 => 0.0,
+        l if l % 2 == 1 => rel[l / 2],
+        l => 0.5 * (rel[l / 2 - 1] + rel[l / 2]),
+    };
+    Summary {
+        method: method.to_string(),
+        seeds: rs.len(),
+        spp: mean(&|r| r.spp as f64),
+        seconds: mean(&|r| r.seconds),
+        rel_mse_mean: m,
+        rel_mse_std: var.sqrt(),
+        rel_mse_median: median,
+        mse: mean(&|r| r.errors.mse),
+        mape: mean(&|r| r.errors.mape),
+        smape: mean(&|r| r.errors.smape),
+        ldr_flip: mean(&|r| r.ldr_flip),
+    }
+}
+
+/// The `focal render` arguments of one run of `method`.
+fn run_args(
+    a: &CompareArgs,
+    method: &str,
+    seed: u64,
+    output: &Path,
+    guide_image: bool,
+) -> RenderArgs {
+    RenderArgs {
+        scene: a.scene.clone(),
+        output: Some(output.to_path_buf()),
+        spp: a.spp,
+        time: a.time,
+        threads: a.threads,
+        seed,
+        defines: a.defines.clone(),
+        png: true,
+        exposure: a.exposure,
+        aovs: false,
+        integrator: (method == "pt").then(|| "path".to_string()),
+        sampler: None,
+        lenient: false,
+        quiet: true,
+        guiding: GuidingArgs {
+            guiding: (method != "pt").then(|| method.to_string()),
+            iterations: a.iterations,
+            train_fraction: a.train_fraction,
+            combine: a.combine.clone(),
+            guide_fraction: None,
+            rr: None,
+            no_escaped: false,
+            no_fallback: false,
+            octree_threshold: None,
+            gmm_k_max: None,
+            gmm_params: Vec::new(),
+            save_guide: None,
+            load_guide: None,
+            guide_image,
+        },
+    }
+}
+
+/// The errors, spp and render seconds of a finished run.
+fn judge(output: &Path, reference: &Image, a: &CompareArgs) -> Result<(ImageErrors, u64, f64)> {
+    let image = Image::read_exr(output)?;
+    let errors =
+        image_errors(&image, reference, a.epsilon, a.outliers).map_err(anyhow::Error::msg)?;
+    let sidecar: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(output.with_extension("json"))?)?;
+    Ok((
+        errors,
+        sidecar["spp"].as_u64().unwrap_or(0),
+        sidecar["render_s"].as_f64().unwrap_or(0.0),
+    ))
 }
 
 /// A false-colour image of the per-pixel relMSE, log scale from 1e-4 (dark) to 10 (bright).

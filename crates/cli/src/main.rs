@@ -2,8 +2,13 @@
 
 mod bench;
 mod compare_cmd;
+mod convergence_plot;
+mod flip;
+mod merge_cmd;
 mod metrics_cmd;
+mod reference_cmd;
 mod render_cmd;
+mod report_html;
 
 use clap::{Parser, Subcommand};
 use std::process::ExitCode;
@@ -24,8 +29,12 @@ enum Command {
     Bench(bench::BenchArgs),
     /// Render a scene with several methods at equal time or spp and tabulate their errors.
     Compare(compare_cmd::CompareArgs),
-    /// Error metrics (relMSE, MSE, MAPE, SMAPE) of an image against a reference.
+    /// Error metrics (relMSE, MSE, MAPE, SMAPE, LDR-FLIP) of an image against a reference.
     Metrics(metrics_cmd::MetricsArgs),
+    /// A long, resumable (checkpointed) unguided reference render with its per-pixel variance.
+    Reference(reference_cmd::ReferenceArgs),
+    /// Combine independent renders of one scene, weighted by their sample counts.
+    Merge(merge_cmd::MergeArgs),
 }
 
 fn main() -> ExitCode {
@@ -35,6 +44,8 @@ fn main() -> ExitCode {
         Command::Bench(a) => bench::run(a),
         Command::Metrics(a) => metrics_cmd::run(a),
         Command::Compare(a) => compare_cmd::run(a),
+        Command::Reference(a) => reference_cmd::run(a),
+        Command::Merge(a) => merge_cmd::run(a),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -1,5 +1,6 @@
-//! `focal metrics`: error metrics between two images.
+//! `focal metrics`: error metrics between two images (relMSE, MSE, MAPE, SMAPE and LDR-FLIP).
 
+use crate::flip::ldr_flip;
 use anyhow::{Context, Result};
 use clap::Args;
 use focal_render::film::Image;
@@ -20,6 +21,9 @@ pub struct MetricsArgs {
     /// Fraction of the largest per-pixel errors to drop (e.g. 0.001 for 0.1 % outliers).
     #[arg(long, default_value_t = 0.0)]
     pub outliers: f64,
+    /// Exposure (stops) of the tonemapping before LDR-FLIP.
+    #[arg(long, default_value_t = 0.0)]
+    pub flip_exposure: f32,
     /// Print JSON instead of a table.
     #[arg(long)]
     pub json: bool,
@@ -31,12 +35,16 @@ pub fn run(a: MetricsArgs) -> Result<()> {
     let image = read(&a.image)?;
     let reference = read(&a.reference)?;
     let e = image_errors(&image, &reference, a.epsilon, a.outliers).map_err(anyhow::Error::msg)?;
+    let (flip, _) = ldr_flip(&image, &reference, a.flip_exposure)?;
     let mut text = if a.json {
-        serde_json::to_string_pretty(&e)? + "\n"
+        let mut v = serde_json::to_value(e)?;
+        v["ldr_flip"] = serde_json::json!(flip);
+        v["flip_exposure"] = serde_json::json!(a.flip_exposure);
+        serde_json::to_string_pretty(&v)? + "\n"
     } else {
         format!(
-            "relMSE (eps {}) {:.6e}\nMSE               {:.6e}\nMAPE              {:.6e}\nSMAPE             {:.6e}\n",
-            e.epsilon, e.rel_mse, e.mse, e.mape, e.smape
+            "relMSE (eps {}) {:.6e}\nMSE               {:.6e}\nMAPE              {:.6e}\nSMAPE             {:.6e}\nLDR-FLIP (exp {}) {:.6e}\n",
+            e.epsilon, e.rel_mse, e.mse, e.mape, e.smape, a.flip_exposure, flip
         )
     };
     if !a.json && e.outlier_fraction > 0.0 {

@@ -6,7 +6,7 @@ use focal_render::guide::{load_guide, make_guide, GuideParams, GuidingMethod};
 use focal_render::integrator::{GuidedSettings, Roulette};
 use focal_render::load::{load_scene, make_integrator};
 use focal_render::render::combine::Combine;
-use focal_render::render::guide_view::{false_colour_log, guide_pdf_image};
+use focal_render::render::guide_view::{false_colour_log, guide_pdf_image, guide_structure_image};
 use focal_render::render::guided::{render_guided, GuidedRenderSettings, TrainingBudget};
 use focal_render::render::{render, RenderSettings};
 use focal_render::sampler::SamplerKind;
@@ -110,7 +110,9 @@ pub struct GuidingArgs {
     /// Use a guide trained earlier (--save-guide) and skip training.
     #[arg(long, value_name = "PATH")]
     pub load_guide: Option<PathBuf>,
-    /// Also write the guide's pdf seen from the camera: OUT.guide.exr and a false-colour OUT.guide.png.
+    /// Also write the guide's pdf seen from the camera (OUT.guide.exr and a false-colour OUT.guide.png)
+    /// and a picture of its structure, OUT.guide_structure.png: the Gaussian components' 2σ ellipsoids
+    /// projected over the render, or the octree leaves' density on a slice through the densest leaf.
     #[arg(long)]
     pub guide_image: bool,
 }
@@ -272,6 +274,7 @@ pub fn run(a: RenderArgs) -> Result<()> {
     let guided = guided_spec(&loaded.integrator, &a.guiding)?;
     let mut iterations_json = serde_json::Value::Null;
     let mut guiding_json = serde_json::Value::Null;
+    let mut guide_caption: Option<String> = None;
     let out = match guided {
         None => render(
             &loaded.scene,
@@ -337,6 +340,18 @@ pub fn run(a: RenderArgs) -> Result<()> {
                 false_colour_log(&pdf, 4.0)
                     .write_png(&png, 0.0)
                     .with_context(|| format!("writing {}", png.display()))?;
+                // Over the image as the PNG shows it (same exposure), so the outlines sit on the scene.
+                let mut shown = out.image.clone();
+                shown.sanitize();
+                shown.scale(2f64.powf(a.exposure as f64));
+                if let Some((vis, caption)) =
+                    guide_structure_image(&loaded.camera, &loaded.film, guide.as_ref(), &shown)
+                {
+                    let png = output.with_extension("guide_structure.png");
+                    vis.write_png(&png, 0.0)
+                        .with_context(|| format!("writing {}", png.display()))?;
+                    guide_caption = Some(caption);
+                }
             }
             if let (Some(p), Some(guide)) = (&g.save_guide, &guide) {
                 std::fs::write(p, guide.save())
@@ -351,6 +366,7 @@ pub fn run(a: RenderArgs) -> Result<()> {
                 "params": spec.params,
                 "loaded_guide": g.load_guide.as_ref().map(|p| p.display().to_string()),
                 "fallback": out.fallback,
+                "structure_image": guide_caption,
             });
             focal_render::render::RenderOutput {
                 image: out.image,

@@ -99,6 +99,26 @@ impl ImageBlock {
         self.rejected = 0;
     }
 
+    /// The raw accumulators (per stored pixel: Σw·RGB, Σw, then Σw·AOVs) and the rejection count, for
+    /// checkpoints that must resume bit-identically.
+    pub(crate) fn raw(&self) -> (&[f64], u64) {
+        (&self.data, self.rejected)
+    }
+
+    /// Restores accumulators saved with [`ImageBlock::raw`]; an error if the length does not match.
+    pub(crate) fn restore_raw(&mut self, data: &[f64], rejected: u64) -> Result<(), String> {
+        if data.len() != self.data.len() {
+            return Err(format!(
+                "accumulator size {} does not match this film ({})",
+                data.len(),
+                self.data.len()
+            ));
+        }
+        self.data.copy_from_slice(data);
+        self.rejected = rejected;
+        Ok(())
+    }
+
     fn ext_size(&self) -> UVec2 {
         self.size + UVec2::splat(2 * self.border)
     }

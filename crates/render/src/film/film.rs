@@ -198,6 +198,22 @@ impl Film {
         self.storage.add_block(block);
     }
 
+    /// Adds all samples of another film of the same spec (e.g. one pass's film into a running total).
+    pub fn merge_film(&mut self, other: &Film) {
+        self.storage.add_block(&other.storage);
+    }
+
+    /// The raw accumulators (per pixel Σw·RGB, Σw, then Σw·AOVs) and the rejection count, for a
+    /// checkpoint from which a render resumes bit-identically.
+    pub fn accumulators(&self) -> (&[f64], u64) {
+        self.storage.raw()
+    }
+
+    /// Restores accumulators saved with [`Film::accumulators`]; an error if their size does not match.
+    pub fn restore_accumulators(&mut self, data: &[f64], rejected: u64) -> Result<(), String> {
+        self.storage.restore_raw(data, rejected)
+    }
+
     /// Clears all accumulated samples.
     pub fn clear(&mut self) {
         let offset = self.storage.offset();

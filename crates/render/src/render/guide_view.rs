@@ -62,3 +62,51 @@ pub fn viridis(t: f32) -> [f32; 3] {
     let f = x - i as f32;
     std::array::from_fn(|c| STOPS[i][c] * (1.0 - f) + STOPS[i + 1][c] * f)
 }
+
+/// A picture of the structure a guide learned, and a one-line caption: for a Gaussian mixture its
+/// components' 2σ ellipsoids projected over `render` (see [`super::guide_ellipses`]), for the octree
+/// the leaves' density on the default slice (see [`super::octree_slice`]). The concrete model is
+/// recovered from the guide's own snapshot, so this works for any boxed guide. `None` for an unknown
+/// guide.
+pub fn guide_structure_image(
+    camera: &Camera,
+    spec: &FilmSpec,
+    guide: &dyn GuidingDistribution,
+    render: &Image,
+) -> Option<(Image, String)> {
+    use super::{guide_ellipses, octree_slice};
+    match guide.name() {
+        "gmm" => {
+            let g = focal_guiding::GmmGuide::load(&guide.save()).ok()?;
+            let comps = guide_ellipses::project_components(camera, spec, &g);
+            let caption = format!(
+                "{} Gaussian components ({} converging, {} diverging, p_div {:.2}): 2σ ellipsoids \
+                 projected through the camera, colour by weight (viridis, yellow = heaviest)",
+                comps.len(),
+                comps.iter().filter(|c| !c.diverging).count(),
+                comps.iter().filter(|c| c.diverging).count(),
+                g.p_div()
+            );
+            Some((guide_ellipses::ellipse_overlay(render, &comps), caption))
+        }
+        "octree" => {
+            let g = focal_guiding::octree::FocalOctreeGuide::load(&guide.save()).ok()?;
+            let view = camera.to_world().transform_vector3(glam::Vec3::Z);
+            let plane = octree_slice::default_plane(&g, view);
+            let slice = octree_slice::octree_slice(&g, plane, 512);
+            let axis = ["x", "y", "z"];
+            let caption = format!(
+                "octree leaf density on the slice {} = {:.4} (through the densest leaf; image x = {}, \
+                 y = {} upwards), log scale over 4 decades, {} + {} leaves",
+                axis[plane.axis],
+                plane.position,
+                axis[slice.axes.0],
+                axis[slice.axes.1],
+                g.converging().leaf_count(),
+                g.diverging().leaf_count()
+            );
+            Some((octree_slice::octree_slice_picture(&slice), caption))
+        }
+        _ => None,
+    }
+}

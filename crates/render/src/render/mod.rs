@@ -5,8 +5,12 @@
 //! and sample count give a bit-identical image whatever the number of threads.
 
 pub mod combine;
+pub mod guide_ellipses;
 pub mod guide_view;
 pub mod guided;
+pub mod merge;
+pub mod octree_slice;
+pub mod reference;
 
 use crate::camera::Camera;
 use crate::film::{AovSample, Film, FilmSpec, Image, ImageBlock};
@@ -209,6 +213,26 @@ impl<'a> PassRunner<'a> {
     /// Passes rendered so far.
     pub fn passes(&self) -> u32 {
         self.passes
+    }
+
+    /// The films (one, or the even and odd halves).
+    pub fn films(&self) -> &[Film] {
+        &self.films
+    }
+
+    /// Empties the films but keeps the sample index, so the next pass continues the same random streams:
+    /// a caller that keeps its own running total can look at each pass on its own.
+    pub fn clear_films(&mut self) {
+        for f in &mut self.films {
+            f.clear();
+        }
+    }
+
+    /// Continues a render from a checkpoint: the next pass renders sample indices from `spp_done`
+    /// (the films are left as they are; restore them separately if needed).
+    pub fn resume_at(&mut self, spp_done: u32, passes: u32) {
+        self.spp_done = spp_done;
+        self.passes = passes;
     }
 
     /// Runs `f` on this runner's thread pool (e.g. a guide's update, so it uses the same threads).
