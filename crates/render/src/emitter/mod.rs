@@ -1,6 +1,7 @@
 //! Light sources (Mitsuba's emitter plugins). Closed set on the hot path.
 
 mod spot;
+pub mod sun_position;
 
 pub use spot::SpotLight;
 
