@@ -139,6 +139,11 @@ fn sms_ring_cylinder_renders_with_path_override() {
 }
 
 #[test]
+fn sms_plane_normalmap_renders() {
+    render_corpus("sms-plane-normalmap/plane_notebook.xml", None);
+}
+
+#[test]
 fn glass_of_milk_media_are_a_clear_early_error() {
     let e = load_corpus("glass-of-milk/scene.xml", &BuildOptions::default())
         .err()
