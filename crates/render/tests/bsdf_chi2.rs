@@ -2,8 +2,8 @@
 //! part), consistency of the sample weight with eval/pdf, white-furnace energy bounds, and reciprocity.
 
 use focal_render::bsdf::{
-    Bsdf, BsdfContext, Conductor, Dielectric, Diffuse, Microfacet, MicrofacetKind, NormalMap,
-    Plastic, RoughConductor, RoughDielectric, RoughPlastic, ThinDielectric, TwoSided,
+    Blend, Bsdf, BsdfContext, Conductor, Dielectric, Diffuse, Microfacet, MicrofacetKind,
+    NormalMap, Plastic, RoughConductor, RoughDielectric, RoughPlastic, ThinDielectric, TwoSided,
 };
 use focal_render::color::Rgb;
 use focal_render::texture::Texture;
@@ -251,6 +251,28 @@ fn cases() -> Vec<Case> {
         &nm_wis,
         Energy::AtMostOne,
     );
+    let blend = |a: Bsdf, b: Bsdf, w: f32| {
+        Bsdf::Blend(Box::new(Blend {
+            bsdfs: Box::new([a, b]),
+            weight: Texture::constant(w),
+        }))
+    };
+    add(
+        "blendbsdf diffuse|roughconductor".into(),
+        &blend(
+            diffuse(1.0),
+            rough_conductor(MicrofacetKind::Ggx, 0.15, 0.15, true),
+            0.3,
+        ),
+        &front,
+        Energy::AtMostOne,
+    );
+    add(
+        "blendbsdf diffuse|plastic".into(),
+        &blend(diffuse(1.0), plastic(1.0, false), 0.6),
+        &front,
+        Energy::AtMostOne,
+    );
     out
 }
 
@@ -350,8 +372,8 @@ fn chi2_conductors_and_diffuse() {
 }
 
 #[test]
-fn chi2_normalmap() {
-    check_cases(&["normalmap"]);
+fn chi2_normalmap_and_blend() {
+    check_cases(&["normalmap", "blendbsdf"]);
 }
 
 #[test]

@@ -153,3 +153,36 @@ fn glass_of_milk_media_are_a_clear_early_error() {
         "{e}"
     );
 }
+
+#[test]
+fn shapegroup_instances_are_flattened_with_their_transforms() {
+    let xml = r#"<scene version="3.0.0">
+        <sensor type="perspective"><film type="hdrfilm"><integer name="width" value="4"/>
+            <integer name="height" value="4"/></film></sensor>
+        <shape type="shapegroup" id="pair">
+            <shape type="sphere"><float name="radius" value="0.5"/></shape>
+            <shape type="rectangle"><transform name="to_world"><translate x="2"/></transform></shape>
+        </shape>
+        <shape type="instance"><ref id="pair"/><transform name="to_world"><translate y="10"/></transform></shape>
+        <shape type="instance"><ref id="pair"/><transform name="to_world"><scale value="2"/></transform></shape>
+    </scene>"#;
+    let s = load_str(xml, std::path::Path::new("."));
+    assert_eq!(s.scene.geometries.len(), 4);
+    let centres: Vec<glam::Vec3> = s
+        .scene
+        .geometries
+        .iter()
+        .map(|g| {
+            let b = g.bounds();
+            (b.min + b.max) * 0.5
+        })
+        .collect();
+    let near = |a: glam::Vec3, b: glam::Vec3| (a - b).length() < 1e-4;
+    assert!(near(centres[0], glam::Vec3::new(0.0, 10.0, 0.0)));
+    assert!(near(centres[1], glam::Vec3::new(2.0, 10.0, 0.0)));
+    assert!(near(centres[3], glam::Vec3::new(4.0, 0.0, 0.0)));
+    let focal_render::geometry::ShapeGeometry::Sphere(sp) = &s.scene.geometries[2] else {
+        panic!("sphere")
+    };
+    assert!((sp.radius - 1.0).abs() < 1e-5);
+}

@@ -24,6 +24,7 @@ const KNOWN_PLUGINS: &[&str] = &[
     "roughplastic",
     "twosided",
     "normalmap",
+    "blendbsdf",
 ];
 
 /// Builds the BSDF described by a `<bsdf>` element.
@@ -85,6 +86,7 @@ pub fn bsdf_from_desc(obj: &ObjectDesc) -> SceneResult<Bsdf> {
         }
         "twosided" => twosided(obj),
         "normalmap" => normalmap(obj),
+        "blendbsdf" => blend(obj),
         "bumpmap" => Err(obj.error(
             "BSDF 'bumpmap' is not supported (height-field bump mapping); convert the height map to a \
              tangent-space normal map and use 'normalmap'",
@@ -346,6 +348,37 @@ fn microfacet(obj: &ObjectDesc, allow_anisotropic: bool) -> SceneResult<Microfac
     }
     let sample_visible = obj.bool_or("sample_visible", true)?;
     Ok(Microfacet::new(kind, au as f32, av as f32, sample_visible))
+}
+
+/// `blendbsdf`: two nested BSDFs (`bsdf_0`, `bsdf_1` or in document order) and `weight` (default 0.5).
+fn blend(obj: &ObjectDesc) -> SceneResult<Bsdf> {
+    let nested: Vec<_> = obj.children_of(&ObjectClass::Bsdf).collect();
+    if nested.len() != 2 {
+        return Err(obj.error(format!(
+            "'blendbsdf' needs exactly two nested BSDFs, found {}",
+            nested.len()
+        )));
+    }
+    let pick = |name: &str, fallback: usize| {
+        nested
+            .iter()
+            .find(|c| c.name.as_deref() == Some(name))
+            .unwrap_or(&nested[fallback])
+    };
+    let (b0, b1) = (pick("bsdf_0", 0), pick("bsdf_1", 1));
+    if std::ptr::eq(*b0, *b1) {
+        return Err(obj.error("'blendbsdf': bsdf_0 and bsdf_1 are the same element"));
+    }
+    let weight = texture(obj, &["weight"], Rgb::splat(0.5))?;
+    if let Texture::Constant(w) = &weight {
+        if w.min_element() < 0.0 || w.max_element() > 1.0 {
+            return Err(obj.error(format!("'blendbsdf' weight must lie in [0, 1], got {w}")));
+        }
+    }
+    Ok(Bsdf::Blend(Box::new(super::Blend {
+        bsdfs: Box::new([bsdf_from_desc(&b0.object)?, bsdf_from_desc(&b1.object)?]),
+        weight,
+    })))
 }
 
 /// `normalmap`: one nested BSDF and the normal map, either a nested `<texture name="normalmap">` (Mitsuba

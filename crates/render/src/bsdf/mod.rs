@@ -9,6 +9,7 @@
 //! All models assume radiance transport (paths traced from the camera): refraction scales radiance by
 //! 1/η², as Mitsuba 3 does in `TransportMode::Radiance`.
 
+mod blend;
 pub mod build;
 mod conductor;
 mod dielectric;
@@ -24,6 +25,7 @@ mod roughplastic;
 mod thindielectric;
 mod twosided;
 
+pub use blend::Blend;
 pub use build::bsdf_from_desc;
 pub use conductor::Conductor;
 pub use dielectric::Dielectric;
@@ -87,6 +89,8 @@ pub enum Bsdf {
     TwoSided(TwoSided),
     /// Normal-mapped nested BSDF (`normalmap`).
     NormalMap(Box<NormalMap>),
+    /// Linear blend of two BSDFs (`blendbsdf`).
+    Blend(Box<Blend>),
 }
 
 /// True for a strictly positive number (false for NaN), for rejecting degenerate samples.
@@ -113,6 +117,7 @@ impl Bsdf {
             Bsdf::RoughPlastic(b) => b.eval(ctx, wi, wo),
             Bsdf::TwoSided(b) => b.eval(ctx, wi, wo),
             Bsdf::NormalMap(b) => b.eval(ctx, wi, wo),
+            Bsdf::Blend(b) => b.eval(ctx, wi, wo),
             Bsdf::Conductor(_) | Bsdf::Dielectric(_) | Bsdf::ThinDielectric(_) => Rgb::ZERO,
         }
     }
@@ -128,6 +133,7 @@ impl Bsdf {
             Bsdf::RoughPlastic(b) => b.pdf(ctx, wi, wo),
             Bsdf::TwoSided(b) => b.pdf(ctx, wi, wo),
             Bsdf::NormalMap(b) => b.pdf(ctx, wi, wo),
+            Bsdf::Blend(b) => b.pdf(ctx, wi, wo),
             Bsdf::Conductor(_) | Bsdf::Dielectric(_) | Bsdf::ThinDielectric(_) => 0.0,
         }
     }
@@ -147,6 +153,7 @@ impl Bsdf {
             Bsdf::RoughPlastic(b) => b.sample(ctx, wi, u1, u2),
             Bsdf::TwoSided(b) => b.sample(ctx, wi, u1, u2),
             Bsdf::NormalMap(b) => b.sample(ctx, wi, u1, u2),
+            Bsdf::Blend(b) => b.sample(ctx, wi, u1, u2),
         }
     }
 
@@ -159,6 +166,7 @@ impl Bsdf {
             Bsdf::Conductor(_) | Bsdf::Dielectric(_) | Bsdf::ThinDielectric(_) => false,
             Bsdf::TwoSided(b) => b.sides.iter().any(Bsdf::has_smooth),
             Bsdf::NormalMap(b) => b.nested.has_smooth(),
+            Bsdf::Blend(b) => b.bsdfs.iter().any(Bsdf::has_smooth),
         }
     }
 
@@ -176,6 +184,7 @@ impl Bsdf {
             | Bsdf::RoughPlastic(_) => false,
             Bsdf::TwoSided(b) => b.sides.iter().any(Bsdf::has_delta),
             Bsdf::NormalMap(b) => b.nested.has_delta(),
+            Bsdf::Blend(b) => b.bsdfs.iter().any(Bsdf::has_delta),
         }
     }
 
@@ -185,6 +194,7 @@ impl Bsdf {
             Bsdf::Dielectric(_) | Bsdf::RoughDielectric(_) | Bsdf::ThinDielectric(_) => true,
             Bsdf::TwoSided(b) => b.sides.iter().any(Bsdf::has_transmission),
             Bsdf::NormalMap(b) => b.nested.has_transmission(),
+            Bsdf::Blend(b) => b.bsdfs.iter().any(Bsdf::has_transmission),
             _ => false,
         }
     }
@@ -203,6 +213,7 @@ impl Bsdf {
             Bsdf::RoughPlastic(b) => b.distribution.min_alpha(),
             Bsdf::TwoSided(b) => b.sides[0].min_roughness().min(b.sides[1].min_roughness()),
             Bsdf::NormalMap(b) => b.nested.min_roughness(),
+            Bsdf::Blend(b) => b.bsdfs[0].min_roughness().min(b.bsdfs[1].min_roughness()),
         }
     }
 
@@ -235,6 +246,10 @@ impl Bsdf {
             Bsdf::RoughPlastic(b) => b.diffuse_reflectance.eval(ctx.uv) + b.specular_albedo(ctx),
             Bsdf::TwoSided(b) => b.sides[0].albedo(ctx),
             Bsdf::NormalMap(b) => b.nested.albedo(ctx),
+            Bsdf::Blend(b) => {
+                let w = b.weight.eval_1(ctx.uv).clamp(0.0, 1.0);
+                b.bsdfs[0].albedo(ctx) * (1.0 - w) + b.bsdfs[1].albedo(ctx) * w
+            }
         };
         a.clamp(Rgb::ZERO, Rgb::ONE)
     }

@@ -28,7 +28,7 @@ impl Cylinder {
             to_world.matrix3.z_axis,
         );
         let (r, ry, len) = (x.length(), y.length(), z.length());
-        if !(r > 0.0 && len > 0.0) || !r.is_finite() || !len.is_finite() {
+        if !(r > 0.0 && len > 0.0 && r.is_finite() && len.is_finite()) {
             return Err("degenerate cylinder (zero radius or length)".into());
         }
         if (r - ry).abs() > 1e-4 * r {

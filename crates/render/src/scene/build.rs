@@ -395,7 +395,39 @@ impl Builder<'_> {
     }
 
     fn add_shape(&mut self, o: &ObjectDesc) -> SceneResult<()> {
-        let to_world = o.transform_or_identity("to_world")?;
+        self.add_shape_under(o, &Mat4::IDENTITY)
+    }
+
+    /// `shapegroup` + `instance`: the group's shapes are copied into the scene, each moved by the
+    /// instance's `to_world` (instancing is flattened at build time: simple, at the cost of memory).
+    fn add_instance(&mut self, o: &ObjectDesc, parent: &Mat4) -> SceneResult<()> {
+        let to_world = *parent * o.transform_or_identity("to_world")?;
+        let mut groups = o
+            .children_of(&ObjectClass::Shape)
+            .filter(|c| c.object.plugin == "shapegroup");
+        let (Some(group), None) = (groups.next(), groups.next()) else {
+            return Err(o.error("an 'instance' needs exactly one <ref> to a 'shapegroup'"));
+        };
+        for child in group.object.children_of(&ObjectClass::Shape) {
+            let c = child.object.as_ref();
+            if c.children_of(&ObjectClass::Emitter).next().is_some() {
+                return Err(
+                    c.error("shapes in a 'shapegroup' cannot carry emitters (as in Mitsuba)")
+                );
+            }
+            match c.plugin.as_str() {
+                "shapegroup" => {
+                    return Err(c.error("a 'shapegroup' cannot contain another shapegroup"))
+                }
+                "instance" => return Err(c.error("a 'shapegroup' cannot contain instances")),
+                _ => self.add_shape_under(c, &to_world)?,
+            }
+        }
+        Ok(())
+    }
+
+    fn add_shape_under(&mut self, o: &ObjectDesc, parent: &Mat4) -> SceneResult<()> {
+        let to_world = *parent * o.transform_or_identity("to_world")?;
         let flip = o.bool_or("flip_normals", false)?;
         let geometry = match o.plugin.as_str() {
             "obj" | "ply" => {
@@ -469,6 +501,9 @@ impl Builder<'_> {
                     .ok_or_else(|| o.error("degenerate disk transform (zero area)"))?;
                 ShapeGeometry::Disk(d)
             }
+            // A group is only a declaration; its shapes appear through instances.
+            "shapegroup" => return Ok(()),
+            "instance" => return self.add_instance(o, parent),
             "cylinder" => {
                 // Mitsuba: the unit tube along +Z from p0 to p1 with the given radius, then to_world.
                 let p0 = o.vec3_or("p0", Vec3::ZERO)?;
@@ -476,7 +511,7 @@ impl Builder<'_> {
                 let radius = o.float_or("radius", 1.0)? as f32;
                 let axis = p1 - p0;
                 let length = axis.length();
-                if !(radius > 0.0 && length > 0.0) || !radius.is_finite() || !length.is_finite() {
+                if !(radius > 0.0 && length > 0.0 && radius.is_finite() && length.is_finite()) {
                     return Err(o.error(format!(
                         "cylinder needs a positive radius and distinct p0, p1 (radius {radius}, length {length})"
                     )));
