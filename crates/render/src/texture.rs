@@ -212,7 +212,10 @@ impl Bitmap {
 
 /// Reads an image file as linear RGB texels. Float formats (EXR, HDR) are linear; integer formats are
 /// sRGB-decoded unless `raw`.
-fn load_image(path: &std::path::Path, raw: bool) -> Result<(u32, u32, Vec<Rgb>), String> {
+pub(crate) fn load_image(
+    path: &std::path::Path,
+    raw: bool,
+) -> Result<(u32, u32, Vec<Rgb>), String> {
     let ext = path
         .extension()
         .and_then(|e| e.to_str())

@@ -164,3 +164,42 @@ fn cylinder_light_outside_and_inside() {
         |_| Vec3::ONE,
     );
 }
+
+#[test]
+fn envmap_importance_sampling() {
+    // A 16×8 map with a bright spot, a black band and a smooth gradient, rotated by to_world.
+    let (w, h) = (16u32, 8u32);
+    let mut img = focal_render::film::Image::new(w, h);
+    for y in 0..h {
+        for x in 0..w {
+            let v = if y == 5 {
+                0.0
+            } else if (x, y) == (3, 2) {
+                40.0
+            } else {
+                0.2 + 0.1 * x as f32
+            };
+            img.rgb[(y * w + x) as usize] = [v, 0.5 * v, 0.25 * v + 0.01];
+        }
+    }
+    let path = std::env::temp_dir().join(format!("focal-envmap-{}.exr", std::process::id()));
+    img.write_exr(&path).unwrap();
+    let s = scene(&format!(
+        r#"<emitter type="envmap"><string name="filename" value="{}"/><float name="scale" value="2"/>
+            <transform name="to_world"><rotate x="1" angle="90"/><rotate z="1" angle="30"/></transform></emitter>"#,
+        path.display()
+    ));
+    let env = s.scene.environment.expect("environment") as usize;
+    let e = s.scene.emitters[env].clone();
+    check("envmap", &s, Vec3::ZERO, move |d| e.eval_environment(d));
+    // The scale is applied and the black band is never sampled.
+    let peak = (0..20_000)
+        .filter_map(|i| {
+            let u = glam::Vec2::new((i % 141) as f32 / 141.0, (i / 141) as f32 / 142.0);
+            s.scene.sample_emitter_direction(Vec3::ZERO, 0.5, 0.5, u)
+        })
+        .map(|(_, es)| (es.weight * es.pdf).x)
+        .fold(0.0f32, f32::max);
+    assert!((peak - 80.0).abs() < 1e-3, "{peak}");
+    std::fs::remove_file(&path).ok();
+}

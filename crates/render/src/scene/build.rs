@@ -653,6 +653,39 @@ impl Builder<'_> {
                     irradiance: nonneg("irradiance", o.rgb_or("irradiance", Vec3::ONE)?)?,
                 }
             }
+            "envmap" => {
+                let (path, loc) = o
+                    .resolve_path("filename")?
+                    .ok_or_else(|| o.error("emitter 'envmap' needs a 'filename'"))?;
+                let (w, h, mut texels) = crate::texture::load_image(&path, false)
+                    .map_err(|e| SceneError::at(&loc, e))?;
+                let scale = o.float_or("scale", 1.0)? as f32;
+                if !(scale >= 0.0) || !scale.is_finite() {
+                    return Err(o.error(format!("envmap: scale must be non-negative, got {scale}")));
+                }
+                for t in &mut texels {
+                    *t = if t.is_finite() {
+                        t.max(Vec3::ZERO) * scale
+                    } else {
+                        Vec3::ZERO
+                    };
+                }
+                let m = glam::Mat3::from_mat4(to_world);
+                if !(m.determinant().abs() > 0.0) {
+                    return Err(o.error("envmap: degenerate to_world"));
+                }
+                match crate::emitter::EnvMap::new(w as usize, h as usize, texels, m) {
+                    Some(e) => Emitter::Envmap(Box::new(e)),
+                    None => {
+                        self.warnings.push(format!(
+                            "{}: envmap '{}' is black (skipped)",
+                            o.loc,
+                            path.display()
+                        ));
+                        return Ok(());
+                    }
+                }
+            }
             "sunsky" | "sun" | "sky" => return self.sunsky_fallback(o, &to_world, weight),
             _ => return self.unknown(o, "emitter"),
         };
