@@ -2,8 +2,8 @@
 //! part), consistency of the sample weight with eval/pdf, white-furnace energy bounds, and reciprocity.
 
 use focal_render::bsdf::{
-    Bsdf, BsdfContext, Conductor, Dielectric, Diffuse, Microfacet, MicrofacetKind, Plastic,
-    RoughConductor, RoughDielectric, RoughPlastic, ThinDielectric, TwoSided,
+    Blend, Bsdf, BsdfContext, Conductor, Dielectric, Diffuse, Microfacet, MicrofacetKind,
+    NormalMap, Plastic, RoughConductor, RoughDielectric, RoughPlastic, ThinDielectric, TwoSided,
 };
 use focal_render::color::Rgb;
 use focal_render::texture::Texture;
@@ -229,6 +229,50 @@ fn cases() -> Vec<Case> {
         &below,
         Energy::AtMostOne,
     );
+    // Normal maps tilt the nested model's frame by 35° (rgb = (n + 1) / 2); directions on different sides
+    // of the two normals are masked, so energy can only be lost.
+    let tilted = Vec3::new(35f32.to_radians().sin(), 0.0, 35f32.to_radians().cos());
+    let nm = |nested: Bsdf| {
+        Bsdf::NormalMap(Box::new(NormalMap {
+            nested,
+            normals: Texture::Constant((tilted + Vec3::ONE) * 0.5),
+        }))
+    };
+    let nm_wis = [dir(0.0, 0.0), dir(60.0, 0.0), dir(70.0, 180.0)];
+    add(
+        "normalmap diffuse".into(),
+        &nm(diffuse(1.0)),
+        &nm_wis,
+        Energy::AtMostOne,
+    );
+    add(
+        "normalmap roughconductor".into(),
+        &nm(rough_conductor(MicrofacetKind::Beckmann, 0.2, 0.2, true)),
+        &nm_wis,
+        Energy::AtMostOne,
+    );
+    let blend = |a: Bsdf, b: Bsdf, w: f32| {
+        Bsdf::Blend(Box::new(Blend {
+            bsdfs: Box::new([a, b]),
+            weight: Texture::constant(w),
+        }))
+    };
+    add(
+        "blendbsdf diffuse|roughconductor".into(),
+        &blend(
+            diffuse(1.0),
+            rough_conductor(MicrofacetKind::Ggx, 0.15, 0.15, true),
+            0.3,
+        ),
+        &front,
+        Energy::AtMostOne,
+    );
+    add(
+        "blendbsdf diffuse|plastic".into(),
+        &blend(diffuse(1.0), plastic(1.0, false), 0.6),
+        &front,
+        Energy::AtMostOne,
+    );
     out
 }
 
@@ -325,6 +369,11 @@ fn check_cases(prefixes: &[&str]) {
 #[test]
 fn chi2_conductors_and_diffuse() {
     check_cases(&["diffuse", "conductor", "roughconductor"]);
+}
+
+#[test]
+fn chi2_normalmap_and_blend() {
+    check_cases(&["normalmap", "blendbsdf"]);
 }
 
 #[test]

@@ -1,20 +1,20 @@
-//! Real public scenes from the shared corpus load and render (few samples, small film) without NaN and
-//! with a plausible mean.
+//! Every scene of the shared corpus (public Mitsuba scenes) loads and renders a few samples of a small
+//! film crop without NaN and with a plausible mean, or fails early with the documented, located error.
 
 mod common;
 
 use common::*;
 use focal_render::load::load_scene;
-use focal_render::scene::BuildOptions;
+use focal_render::scene::{BuildOptions, LoadedScene, Strictness};
 
-fn render_corpus(rel: &str, integrator: Option<&str>) -> [f64; 3] {
+fn load_corpus(rel: &str, opts: &BuildOptions) -> Result<LoadedScene, String> {
     let path = shared_dir().join("corpus").join(rel);
-    let opts = BuildOptions {
-        integrator_override: integrator.map(str::to_string),
-        ..Default::default()
-    };
-    let mut s = load_scene(&path, &[], &opts).unwrap_or_else(|e| panic!("{e}"));
-    // Render a 1/8-size crop of the film quickly.
+    load_scene(&path, &[], opts).map_err(|e| e.to_string())
+}
+
+fn render_corpus_with(rel: &str, opts: &BuildOptions) -> (LoadedScene, [f64; 3]) {
+    let mut s = load_corpus(rel, opts).unwrap_or_else(|e| panic!("{e}"));
+    // A small crop of the film keeps this fast in debug builds.
     s.film.crop_size = s.film.crop_size.min(glam::UVec2::new(96, 72));
     let out = render_loaded(&s, &settings(4, 5, 0));
     assert!(all_finite(&out.image), "{rel}: non-finite pixels");
@@ -23,7 +23,15 @@ fn render_corpus(rel: &str, integrator: Option<&str>) -> [f64; 3] {
         m.iter().all(|c| *c > 1e-4 && *c < 1e3),
         "{rel}: implausible mean {m:?}"
     );
-    m
+    (s, m)
+}
+
+fn render_corpus(rel: &str, integrator: Option<&str>) -> [f64; 3] {
+    let opts = BuildOptions {
+        integrator_override: integrator.map(str::to_string),
+        ..Default::default()
+    };
+    render_corpus_with(rel, &opts).1
 }
 
 #[test]
@@ -32,24 +40,149 @@ fn cbox_mitsuba3_renders() {
 }
 
 #[test]
-fn cbox_mitsuba05_renders_with_path_override() {
-    render_corpus("cbox-mi05/cbox.xml", Some("path"));
+fn cbox_mitsuba05_guided_path_renders_as_path_with_a_warning() {
+    let (s, _) = render_corpus_with("cbox-mi05/cbox.xml", &BuildOptions::default());
+    let w = s.warnings.join("\n");
+    assert!(
+        w.contains("guided_path") && w.contains("cbox.xml:8:") && w.contains("'path'"),
+        "{w}"
+    );
+    // Its maxDepth 10 / rrDepth 10 are kept.
+    let focal_render::scene::IntegratorSpec::Path(p) = &s.integrator else {
+        panic!("expected the path tracer")
+    };
+    assert_eq!((p.max_depth, p.rr_depth), (10, 10));
 }
 
 #[test]
-fn cbox_mitsuba05_guided_path_integrator_is_rejected_clearly() {
-    let path = shared_dir().join("corpus/cbox-mi05/cbox.xml");
-    let err = load_scene(&path, &[], &BuildOptions::default())
+fn unknown_integrators_stay_errors() {
+    let e = load_corpus("sms-ring/ring.xml", &BuildOptions::default())
         .err()
-        .expect("must fail");
-    let msg = err.to_string();
+        .expect("path_sms_ss is not ours");
     assert!(
-        msg.contains("guided_path") && msg.contains("cbox.xml:8:"),
-        "{msg}"
+        e.contains("path_sms_ss") && e.contains("ring.xml:6:"),
+        "{e}"
     );
 }
 
 #[test]
 fn veach_mis_renders() {
     render_corpus("veach-mis-mi3/integrator_direct_both.xml", None);
+}
+
+#[test]
+fn veach_bidir_renders() {
+    let (s, _) = render_corpus_with("veach-bidir/scene.xml", &BuildOptions::default());
+    assert!(s
+        .warnings
+        .iter()
+        .any(|w| w.contains("path_guiding_integrator")));
+    let focal_render::scene::IntegratorSpec::Path(p) = &s.integrator else {
+        panic!("expected the path tracer")
+    };
+    assert_eq!(p.max_depth, 7);
+}
+
+#[test]
+fn torus_mitsuba3_serialized_renders() {
+    let (s, _) = render_corpus_with("torus-v3/scene.xml", &BuildOptions::default());
+    // Five meshes from one serialized file.
+    assert_eq!(s.scene.geometries.len(), 5);
+    let focal_render::scene::IntegratorSpec::Path(p) = &s.integrator else {
+        panic!("expected the path tracer")
+    };
+    assert_eq!((p.max_depth, p.rr_depth), (30, 8));
+}
+
+#[test]
+fn torus_mitsuba06_sunsky_is_a_clear_error_and_renders_leniently() {
+    let e = load_corpus("torus-v06/scene.xml", &BuildOptions::default())
+        .err()
+        .expect("sunsky is not implemented");
+    assert!(
+        e.contains("sunsky") && e.contains("scene.xml:32:") && e.contains("--lenient"),
+        "{e}"
+    );
+    let opts = BuildOptions {
+        strictness: Strictness::Lenient,
+        ..Default::default()
+    };
+    let (s, _) = render_corpus_with("torus-v06/scene.xml", &opts);
+    // A sun above the floor (the scene is Z-up) and a sky.
+    let sun = s
+        .scene
+        .emitters
+        .iter()
+        .find_map(|e| match e {
+            focal_render::emitter::Emitter::Directional { direction, .. } => Some(*direction),
+            _ => None,
+        })
+        .expect("directional sun");
+    assert!(sun.z < -0.5, "sun shines downwards: {sun}");
+    assert!(s.scene.environment.is_some());
+}
+
+#[test]
+fn sms_ring_cylinder_renders_with_path_override() {
+    let (s, _) = render_corpus_with(
+        "sms-ring/ring.xml",
+        &BuildOptions {
+            integrator_override: Some("path".into()),
+            ..Default::default()
+        },
+    );
+    assert!(s
+        .scene
+        .geometries
+        .iter()
+        .any(|g| matches!(g, focal_render::geometry::ShapeGeometry::Cylinder(_))));
+}
+
+#[test]
+fn sms_plane_normalmap_renders() {
+    render_corpus("sms-plane-normalmap/plane_notebook.xml", None);
+}
+
+#[test]
+fn glass_of_milk_media_are_a_clear_early_error() {
+    let e = load_corpus("glass-of-milk/scene.xml", &BuildOptions::default())
+        .err()
+        .expect("media are not supported");
+    assert!(
+        e.contains("homogeneous") && e.contains("scene.xml:27:") && e.contains("media"),
+        "{e}"
+    );
+}
+
+#[test]
+fn shapegroup_instances_are_flattened_with_their_transforms() {
+    let xml = r#"<scene version="3.0.0">
+        <sensor type="perspective"><film type="hdrfilm"><integer name="width" value="4"/>
+            <integer name="height" value="4"/></film></sensor>
+        <shape type="shapegroup" id="pair">
+            <shape type="sphere"><float name="radius" value="0.5"/></shape>
+            <shape type="rectangle"><transform name="to_world"><translate x="2"/></transform></shape>
+        </shape>
+        <shape type="instance"><ref id="pair"/><transform name="to_world"><translate y="10"/></transform></shape>
+        <shape type="instance"><ref id="pair"/><transform name="to_world"><scale value="2"/></transform></shape>
+    </scene>"#;
+    let s = load_str(xml, std::path::Path::new("."));
+    assert_eq!(s.scene.geometries.len(), 4);
+    let centres: Vec<glam::Vec3> = s
+        .scene
+        .geometries
+        .iter()
+        .map(|g| {
+            let b = g.bounds();
+            (b.min + b.max) * 0.5
+        })
+        .collect();
+    let near = |a: glam::Vec3, b: glam::Vec3| (a - b).length() < 1e-4;
+    assert!(near(centres[0], glam::Vec3::new(0.0, 10.0, 0.0)));
+    assert!(near(centres[1], glam::Vec3::new(2.0, 10.0, 0.0)));
+    assert!(near(centres[3], glam::Vec3::new(4.0, 0.0, 0.0)));
+    let focal_render::geometry::ShapeGeometry::Sphere(sp) = &s.scene.geometries[2] else {
+        panic!("sphere")
+    };
+    assert!((sp.radius - 1.0).abs() < 1e-5);
 }

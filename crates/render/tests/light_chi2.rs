@@ -54,7 +54,10 @@ fn check(name: &str, s: &LoadedScene, x: Vec3, radiance: impl Fn(Vec3) -> Vec3) 
                 "{name}: weight"
             );
             let pdf = mis_pdf(s, x, es.wi);
-            if checked < 2000 {
+            // At grazing angles on curved lights the re-traced hit point's cosine differs from the
+            // sampled one by float error, which the 1/cos of the pdf magnifies; those are left to chi².
+            let grazing = es.n != Vec3::ZERO && -es.n.dot(es.wi) < 1e-2;
+            if checked < 2000 && !grazing {
                 assert!(
                     (pdf - es.pdf as f64).abs() <= 2e-3 * pdf.max(1e-6),
                     "{name}: pdf {} vs {pdf}",
@@ -133,4 +136,70 @@ fn disk_light_and_weighted_selection() {
 fn constant_environment() {
     let s = scene(r#"<emitter type="constant"><rgb name="radiance" value="0.5"/></emitter>"#);
     check("constant", &s, Vec3::ZERO, |_| Vec3::splat(0.5));
+}
+
+#[test]
+fn cylinder_light_outside_and_inside() {
+    // Radius 0.5, length 1.5 along the rotated axis; uniform area sampling of the open tube.
+    let s = scene(
+        r#"<shape type="cylinder"><float name="radius" value="0.5"/><point name="p1" x="0" y="0" z="1.5"/>
+            <transform name="to_world"><rotate x="1" angle="30"/><translate y="1.5"/></transform>
+            <emitter type="area"><rgb name="radiance" value="3"/></emitter></shape>"#,
+    );
+    check(
+        "cylinder light from outside",
+        &s,
+        Vec3::new(0.2, 0.0, 0.3),
+        |_| Vec3::splat(3.0),
+    );
+    let inside = scene(
+        r#"<shape type="cylinder"><boolean name="flip_normals" value="true"/>
+            <transform name="to_world"><scale x="2" y="2" z="4"/><translate z="-2"/></transform>
+            <emitter type="area"><rgb name="radiance" value="1"/></emitter></shape>"#,
+    );
+    check(
+        "cylinder light from inside",
+        &inside,
+        Vec3::new(0.3, -0.5, 0.2),
+        |_| Vec3::ONE,
+    );
+}
+
+#[test]
+fn envmap_importance_sampling() {
+    // A 16×8 map with a bright spot, a black band and a smooth gradient, rotated by to_world.
+    let (w, h) = (16u32, 8u32);
+    let mut img = focal_render::film::Image::new(w, h);
+    for y in 0..h {
+        for x in 0..w {
+            let v = if y == 5 {
+                0.0
+            } else if (x, y) == (3, 2) {
+                40.0
+            } else {
+                0.2 + 0.1 * x as f32
+            };
+            img.rgb[(y * w + x) as usize] = [v, 0.5 * v, 0.25 * v + 0.01];
+        }
+    }
+    let path = std::env::temp_dir().join(format!("focal-envmap-{}.exr", std::process::id()));
+    img.write_exr(&path).unwrap();
+    let s = scene(&format!(
+        r#"<emitter type="envmap"><string name="filename" value="{}"/><float name="scale" value="2"/>
+            <transform name="to_world"><rotate x="1" angle="90"/><rotate z="1" angle="30"/></transform></emitter>"#,
+        path.display()
+    ));
+    let env = s.scene.environment.expect("environment") as usize;
+    let e = s.scene.emitters[env].clone();
+    check("envmap", &s, Vec3::ZERO, move |d| e.eval_environment(d));
+    // The scale is applied and the black band is never sampled.
+    let peak = (0..20_000)
+        .filter_map(|i| {
+            let u = glam::Vec2::new((i % 141) as f32 / 141.0, (i / 141) as f32 / 142.0);
+            s.scene.sample_emitter_direction(Vec3::ZERO, 0.5, 0.5, u)
+        })
+        .map(|(_, es)| (es.weight * es.pdf).x)
+        .fold(0.0f32, f32::max);
+    assert!((peak - 80.0).abs() < 1e-3, "{peak}");
+    std::fs::remove_file(&path).ok();
 }

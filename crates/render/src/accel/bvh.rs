@@ -1,7 +1,7 @@
 //! CPU BVH back-end on `obvhs`' compressed wide BVH (CWBVH, 8-wide, SIMD node tests).
 
 use super::{Accel, PrimHit};
-use crate::geometry::{Disk, ShapeGeometry, Sphere};
+use crate::geometry::{Cylinder, Disk, ShapeGeometry, Sphere};
 use crate::ray::Ray;
 use glam::{Vec2, Vec3, Vec3A};
 use obvhs::aabb::Aabb as BAabb;
@@ -28,6 +28,7 @@ struct TriPrim {
 enum Analytic {
     Sphere(Sphere),
     Disk(Disk),
+    Cylinder(Cylinder),
 }
 
 struct Bounded(BAabb);
@@ -87,6 +88,11 @@ impl BvhAccel {
                     let b = d.bounds();
                     bounds.push((b.min, b.max));
                 }
+                ShapeGeometry::Cylinder(c) => {
+                    push_analytic(Analytic::Cylinder(*c), shape, &mut prims);
+                    let b = c.bounds();
+                    bounds.push((b.min, b.max));
+                }
             }
         }
         let bounds: Vec<Bounded> = bounds
@@ -124,6 +130,7 @@ impl BvhAccel {
             return match &self.analytic[(prim.tri & !ANALYTIC) as usize] {
                 Analytic::Sphere(s) => s.intersect(o, d, 0.0, t_max).map(|t| (t, Vec2::ZERO)),
                 Analytic::Disk(k) => k.intersect(o, d, 0.0, t_max).map(|t| (t, Vec2::ZERO)),
+                Analytic::Cylinder(c) => c.intersect(o, d, 0.0, t_max).map(|t| (t, Vec2::ZERO)),
             };
         }
         // Möller–Trumbore.

@@ -9,7 +9,8 @@ use super::{
 use crate::color::Rgb;
 use crate::desc::{ObjectClass, ObjectDesc, PropValue, Property};
 use crate::error::{SceneError, SceneResult};
-use crate::texture::Texture;
+use crate::texture::{Bitmap, Checkerboard, Texture, UvTransform};
+use std::sync::Arc;
 
 /// The BSDF plugins we can build.
 const KNOWN_PLUGINS: &[&str] = &[
@@ -22,6 +23,8 @@ const KNOWN_PLUGINS: &[&str] = &[
     "plastic",
     "roughplastic",
     "twosided",
+    "normalmap",
+    "blendbsdf",
 ];
 
 /// Builds the BSDF described by a `<bsdf>` element.
@@ -82,6 +85,12 @@ pub fn bsdf_from_desc(obj: &ObjectDesc) -> SceneResult<Bsdf> {
             ))))
         }
         "twosided" => twosided(obj),
+        "normalmap" => normalmap(obj),
+        "blendbsdf" => blend(obj),
+        "bumpmap" => Err(obj.error(
+            "BSDF 'bumpmap' is not supported (height-field bump mapping); convert the height map to a \
+             tangent-space normal map and use 'normalmap'",
+        )),
         other => Err(obj.error(format!(
             "unknown BSDF plugin '{other}' (supported: {})",
             KNOWN_PLUGINS.join(", ")
@@ -118,8 +127,34 @@ fn texture(obj: &ObjectDesc, names: &[&str], default: Rgb) -> SceneResult<Textur
     Ok(optional_texture(obj, names)?.unwrap_or(Texture::Constant(default)))
 }
 
-/// A colour parameter as a constant texture, or `None` if absent.
+/// Builds a nested `<texture>` element: `bitmap` or `checkerboard`.
+pub fn texture_from_desc(t: &ObjectDesc) -> SceneResult<Texture> {
+    match t.plugin.as_str() {
+        "bitmap" => Ok(Texture::Bitmap(Arc::new(Bitmap::from_desc(t)?))),
+        "checkerboard" => {
+            reject_texture_child(t, &["color0", "color1"])?;
+            Ok(Texture::Checkerboard(Arc::new(Checkerboard {
+                color0: t.rgb_or("color0", Rgb::splat(0.4))?,
+                color1: t.rgb_or("color1", Rgb::splat(0.2))?,
+                to_uv: UvTransform::from_desc(t)?,
+            })))
+        }
+        other => Err(t.error(format!(
+            "unsupported texture plugin '{other}' (supported: bitmap, checkerboard)"
+        ))),
+    }
+}
+
+/// A colour parameter as a texture (a nested `<texture>`, or a constant rgb, spectrum or float), or
+/// `None` if absent.
 fn optional_texture(obj: &ObjectDesc, names: &[&str]) -> SceneResult<Option<Texture>> {
+    for n in names {
+        if let Some(child) = obj.named_child(n) {
+            if child.object.class == ObjectClass::Texture {
+                return texture_from_desc(&child.object).map(Some);
+            }
+        }
+    }
     reject_texture_child(obj, names)?;
     match find_prop(obj, names) {
         None => Ok(None),
@@ -224,6 +259,11 @@ fn conductor_eta_k(obj: &ObjectDesc) -> SceneResult<(Texture, Texture)> {
         let k = texture(obj, &["k"], Rgb::ONE)?;
         match (eta, k) {
             (Texture::Constant(e), Texture::Constant(k)) => (e, k),
+            _ => {
+                return Err(obj.error(
+                    "conductor 'eta' and 'k' must be constant (textures are not supported)",
+                ))
+            }
         }
     } else {
         conductor_ior(&material).ok_or_else(|| {
@@ -308,6 +348,65 @@ fn microfacet(obj: &ObjectDesc, allow_anisotropic: bool) -> SceneResult<Microfac
     }
     let sample_visible = obj.bool_or("sample_visible", true)?;
     Ok(Microfacet::new(kind, au as f32, av as f32, sample_visible))
+}
+
+/// `blendbsdf`: two nested BSDFs (`bsdf_0`, `bsdf_1` or in document order) and `weight` (default 0.5).
+fn blend(obj: &ObjectDesc) -> SceneResult<Bsdf> {
+    let nested: Vec<_> = obj.children_of(&ObjectClass::Bsdf).collect();
+    if nested.len() != 2 {
+        return Err(obj.error(format!(
+            "'blendbsdf' needs exactly two nested BSDFs, found {}",
+            nested.len()
+        )));
+    }
+    let pick = |name: &str, fallback: usize| {
+        nested
+            .iter()
+            .find(|c| c.name.as_deref() == Some(name))
+            .unwrap_or(&nested[fallback])
+    };
+    let (b0, b1) = (pick("bsdf_0", 0), pick("bsdf_1", 1));
+    if std::ptr::eq(*b0, *b1) {
+        return Err(obj.error("'blendbsdf': bsdf_0 and bsdf_1 are the same element"));
+    }
+    let weight = texture(obj, &["weight"], Rgb::splat(0.5))?;
+    if let Texture::Constant(w) = &weight {
+        if w.min_element() < 0.0 || w.max_element() > 1.0 {
+            return Err(obj.error(format!("'blendbsdf' weight must lie in [0, 1], got {w}")));
+        }
+    }
+    Ok(Bsdf::Blend(Box::new(super::Blend {
+        bsdfs: Box::new([bsdf_from_desc(&b0.object)?, bsdf_from_desc(&b1.object)?]),
+        weight,
+    })))
+}
+
+/// `normalmap`: one nested BSDF and the normal map, either a nested `<texture name="normalmap">` (Mitsuba
+/// 3) or a `filename` on the element itself (Mitsuba 2 / SMS); the image is read raw (no sRGB decoding).
+fn normalmap(obj: &ObjectDesc) -> SceneResult<Bsdf> {
+    let nested: Vec<_> = obj.children_of(&ObjectClass::Bsdf).collect();
+    if nested.len() != 1 {
+        return Err(obj.error(format!(
+            "'normalmap' needs exactly one nested BSDF, found {}",
+            nested.len()
+        )));
+    }
+    let normals = match obj.named_child("normalmap") {
+        Some(c) if c.object.class == ObjectClass::Texture && c.object.plugin == "bitmap" => {
+            Texture::Bitmap(Arc::new(Bitmap::from_desc_raw(&c.object, true)?))
+        }
+        Some(c) => texture_from_desc(&c.object)?,
+        None if obj.prop("filename").is_some() => {
+            Texture::Bitmap(Arc::new(Bitmap::from_desc_raw(obj, true)?))
+        }
+        None => return Err(obj.error(
+            "'normalmap' needs a normal map: a nested <texture name=\"normalmap\"> or a 'filename'",
+        )),
+    };
+    Ok(Bsdf::NormalMap(Box::new(super::NormalMap {
+        nested: bsdf_from_desc(&nested[0].object)?,
+        normals,
+    })))
 }
 
 /// `twosided` with one nested BSDF (both sides) or two (front, back); transmissive models are rejected.
@@ -585,14 +684,29 @@ mod tests {
     }
 
     #[test]
-    fn nested_textures_are_not_yet_supported() {
+    fn nested_textures_are_built_or_located_errors() {
         let mut tex = bsdf("bitmap", &[]);
         tex.class = ObjectClass::Texture;
         tex.loc = loc(7);
         let obj = with_children(bsdf("diffuse", &[]), vec![(Some("reflectance"), tex)]);
         let (line, msg) = err_line(bsdf_from_desc(&obj));
         assert_eq!(line, 7);
-        assert!(msg.contains("textures not yet supported"), "{msg}");
+        assert!(msg.contains("filename"), "{msg}");
+
+        let mut checker = bsdf("checkerboard", &[("color1", float(0.9))]);
+        checker.class = ObjectClass::Texture;
+        let obj = with_children(bsdf("diffuse", &[]), vec![(Some("reflectance"), checker)]);
+        let Bsdf::Diffuse(d) = bsdf_from_desc(&obj).unwrap() else {
+            panic!()
+        };
+        assert_eq!(
+            d.reflectance.eval(glam::Vec2::new(0.1, 0.1)),
+            Rgb::splat(0.4)
+        );
+        assert_eq!(
+            d.reflectance.eval(glam::Vec2::new(0.6, 0.1)),
+            Rgb::splat(0.9)
+        );
     }
 
     #[test]

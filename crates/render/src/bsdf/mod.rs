@@ -9,6 +9,7 @@
 //! All models assume radiance transport (paths traced from the camera): refraction scales radiance by
 //! 1/η², as Mitsuba 3 does in `TransportMode::Radiance`.
 
+mod blend;
 pub mod build;
 mod conductor;
 mod dielectric;
@@ -16,6 +17,7 @@ mod diffuse;
 pub mod fresnel;
 pub mod ior;
 pub mod microfacet;
+mod normalmap;
 mod plastic;
 mod roughconductor;
 mod roughdielectric;
@@ -23,11 +25,13 @@ mod roughplastic;
 mod thindielectric;
 mod twosided;
 
+pub use blend::Blend;
 pub use build::bsdf_from_desc;
 pub use conductor::Conductor;
 pub use dielectric::Dielectric;
 pub use diffuse::Diffuse;
 pub use microfacet::{Microfacet, MicrofacetKind};
+pub use normalmap::NormalMap;
 pub use plastic::Plastic;
 pub use roughconductor::RoughConductor;
 pub use roughdielectric::RoughDielectric;
@@ -83,6 +87,10 @@ pub enum Bsdf {
     RoughPlastic(Box<RoughPlastic>),
     /// Two-sided adapter (`twosided`).
     TwoSided(TwoSided),
+    /// Normal-mapped nested BSDF (`normalmap`).
+    NormalMap(Box<NormalMap>),
+    /// Linear blend of two BSDFs (`blendbsdf`).
+    Blend(Box<Blend>),
 }
 
 /// True for a strictly positive number (false for NaN), for rejecting degenerate samples.
@@ -93,9 +101,8 @@ pub(crate) fn is_positive(x: f32) -> bool {
 
 /// The mean of a texture's values (Mitsuba's `Texture::mean`), used for sampling weights.
 pub(crate) fn texture_mean(t: &Texture) -> f32 {
-    match t {
-        Texture::Constant(c) => (c.x + c.y + c.z) / 3.0,
-    }
+    let c = t.mean();
+    (c.x + c.y + c.z) / 3.0
 }
 
 impl Bsdf {
@@ -109,6 +116,8 @@ impl Bsdf {
             Bsdf::Plastic(b) => b.eval(ctx, wi, wo),
             Bsdf::RoughPlastic(b) => b.eval(ctx, wi, wo),
             Bsdf::TwoSided(b) => b.eval(ctx, wi, wo),
+            Bsdf::NormalMap(b) => b.eval(ctx, wi, wo),
+            Bsdf::Blend(b) => b.eval(ctx, wi, wo),
             Bsdf::Conductor(_) | Bsdf::Dielectric(_) | Bsdf::ThinDielectric(_) => Rgb::ZERO,
         }
     }
@@ -123,6 +132,8 @@ impl Bsdf {
             Bsdf::Plastic(b) => b.pdf(ctx, wi, wo),
             Bsdf::RoughPlastic(b) => b.pdf(ctx, wi, wo),
             Bsdf::TwoSided(b) => b.pdf(ctx, wi, wo),
+            Bsdf::NormalMap(b) => b.pdf(ctx, wi, wo),
+            Bsdf::Blend(b) => b.pdf(ctx, wi, wo),
             Bsdf::Conductor(_) | Bsdf::Dielectric(_) | Bsdf::ThinDielectric(_) => 0.0,
         }
     }
@@ -141,6 +152,8 @@ impl Bsdf {
             Bsdf::Plastic(b) => b.sample(ctx, wi, u1, u2),
             Bsdf::RoughPlastic(b) => b.sample(ctx, wi, u1, u2),
             Bsdf::TwoSided(b) => b.sample(ctx, wi, u1, u2),
+            Bsdf::NormalMap(b) => b.sample(ctx, wi, u1, u2),
+            Bsdf::Blend(b) => b.sample(ctx, wi, u1, u2),
         }
     }
 
@@ -152,6 +165,8 @@ impl Bsdf {
             Bsdf::Plastic(_) | Bsdf::RoughPlastic(_) => true,
             Bsdf::Conductor(_) | Bsdf::Dielectric(_) | Bsdf::ThinDielectric(_) => false,
             Bsdf::TwoSided(b) => b.sides.iter().any(Bsdf::has_smooth),
+            Bsdf::NormalMap(b) => b.nested.has_smooth(),
+            Bsdf::Blend(b) => b.bsdfs.iter().any(Bsdf::has_smooth),
         }
     }
 
@@ -168,6 +183,8 @@ impl Bsdf {
             | Bsdf::RoughDielectric(_)
             | Bsdf::RoughPlastic(_) => false,
             Bsdf::TwoSided(b) => b.sides.iter().any(Bsdf::has_delta),
+            Bsdf::NormalMap(b) => b.nested.has_delta(),
+            Bsdf::Blend(b) => b.bsdfs.iter().any(Bsdf::has_delta),
         }
     }
 
@@ -176,6 +193,8 @@ impl Bsdf {
         match self {
             Bsdf::Dielectric(_) | Bsdf::RoughDielectric(_) | Bsdf::ThinDielectric(_) => true,
             Bsdf::TwoSided(b) => b.sides.iter().any(Bsdf::has_transmission),
+            Bsdf::NormalMap(b) => b.nested.has_transmission(),
+            Bsdf::Blend(b) => b.bsdfs.iter().any(Bsdf::has_transmission),
             _ => false,
         }
     }
@@ -193,6 +212,8 @@ impl Bsdf {
             Bsdf::RoughDielectric(b) => b.distribution.min_alpha(),
             Bsdf::RoughPlastic(b) => b.distribution.min_alpha(),
             Bsdf::TwoSided(b) => b.sides[0].min_roughness().min(b.sides[1].min_roughness()),
+            Bsdf::NormalMap(b) => b.nested.min_roughness(),
+            Bsdf::Blend(b) => b.bsdfs[0].min_roughness().min(b.bsdfs[1].min_roughness()),
         }
     }
 
@@ -224,6 +245,11 @@ impl Bsdf {
             Bsdf::Plastic(b) => b.diffuse_reflectance.eval(ctx.uv) + b.specular_albedo(ctx),
             Bsdf::RoughPlastic(b) => b.diffuse_reflectance.eval(ctx.uv) + b.specular_albedo(ctx),
             Bsdf::TwoSided(b) => b.sides[0].albedo(ctx),
+            Bsdf::NormalMap(b) => b.nested.albedo(ctx),
+            Bsdf::Blend(b) => {
+                let w = b.weight.eval_1(ctx.uv).clamp(0.0, 1.0);
+                b.bsdfs[0].albedo(ctx) * (1.0 - w) + b.bsdfs[1].albedo(ctx) * w
+            }
         };
         a.clamp(Rgb::ZERO, Rgb::ONE)
     }

@@ -1,7 +1,10 @@
 //! Light sources (Mitsuba's emitter plugins). Closed set on the hot path.
 
+mod envmap;
 mod spot;
+pub mod sun_position;
 
+pub use envmap::EnvMap;
 pub use spot::SpotLight;
 
 use crate::color::Rgb;
@@ -34,6 +37,8 @@ pub enum Emitter {
         /// Radiance.
         radiance: Rgb,
     },
+    /// `envmap`: an importance-sampled equirectangular image at infinity.
+    Envmap(Box<EnvMap>),
     /// `directional`: a delta direction at infinity.
     Directional {
         /// Direction the light travels in (unit).
@@ -64,7 +69,7 @@ pub struct EmitterSample {
 impl Emitter {
     /// True for lights at infinity that escaping rays see (constant; envmap later).
     pub fn is_environment(&self) -> bool {
-        matches!(self, Emitter::Constant { .. })
+        matches!(self, Emitter::Constant { .. } | Emitter::Envmap(_))
     }
 
     /// True for delta position/direction lights.
@@ -154,6 +159,17 @@ impl Emitter {
                     n: Vec3::ZERO,
                 })
             }
+            Emitter::Envmap(e) => {
+                let (wi, pdf, radiance) = e.sample(u)?;
+                Some(EmitterSample {
+                    wi,
+                    dist: f32::INFINITY,
+                    weight: radiance / pdf,
+                    pdf,
+                    delta: false,
+                    n: Vec3::ZERO,
+                })
+            }
             Emitter::Directional {
                 direction,
                 irradiance,
@@ -188,6 +204,7 @@ impl Emitter {
                 }
             }
             Emitter::Constant { .. } => UNIFORM_SPHERE_PDF,
+            Emitter::Envmap(e) => e.pdf(p),
             _ => 0.0,
         }
     }
@@ -196,6 +213,7 @@ impl Emitter {
     pub fn eval_environment(&self, _d: Vec3) -> Rgb {
         match self {
             Emitter::Constant { radiance } => *radiance,
+            Emitter::Envmap(e) => e.eval(_d),
             _ => Rgb::ZERO,
         }
     }
@@ -222,6 +240,7 @@ impl Emitter {
             } => format!("point(at {position}, intensity {intensity})"),
             Emitter::Spot(s) => format!("spot(at {}, intensity {})", s.position(), s.intensity),
             Emitter::Constant { radiance } => format!("constant(radiance {radiance})"),
+            Emitter::Envmap(_) => "envmap".to_string(),
             Emitter::Directional {
                 direction,
                 irradiance,

@@ -2,6 +2,7 @@
 
 mod aabb;
 mod canonical;
+mod cylinder;
 mod disk;
 mod interaction;
 mod shape_geometry;
@@ -10,6 +11,7 @@ mod triangle_mesh;
 
 pub use aabb::Aabb;
 pub use canonical::{cube_mesh, rectangle_mesh};
+pub use cylinder::Cylinder;
 pub use disk::Disk;
 pub use interaction::SurfaceInteraction;
 pub use shape_geometry::ShapeGeometry;

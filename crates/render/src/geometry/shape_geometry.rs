@@ -1,6 +1,6 @@
 //! The closed set of shape geometries.
 
-use super::{Aabb, Disk, PositionSample, Sphere, TriangleMesh};
+use super::{Aabb, Cylinder, Disk, PositionSample, Sphere, TriangleMesh};
 use glam::Vec2;
 
 /// The geometry of one scene shape.
@@ -12,6 +12,8 @@ pub enum ShapeGeometry {
     Sphere(Sphere),
     /// An analytic disk.
     Disk(Disk),
+    /// An analytic open cylinder.
+    Cylinder(Cylinder),
 }
 
 impl ShapeGeometry {
@@ -21,6 +23,7 @@ impl ShapeGeometry {
             ShapeGeometry::Mesh(m) => m.area(),
             ShapeGeometry::Sphere(s) => s.area(),
             ShapeGeometry::Disk(d) => d.area(),
+            ShapeGeometry::Cylinder(c) => c.area(),
         }
     }
 
@@ -30,6 +33,7 @@ impl ShapeGeometry {
             ShapeGeometry::Mesh(m) => m.bounds(),
             ShapeGeometry::Sphere(s) => s.bounds(),
             ShapeGeometry::Disk(d) => d.bounds(),
+            ShapeGeometry::Cylinder(c) => c.bounds(),
         }
     }
 
@@ -39,6 +43,7 @@ impl ShapeGeometry {
             ShapeGeometry::Mesh(m) => m.sample_position(u1, u2),
             ShapeGeometry::Sphere(s) => s.sample_position(u2),
             ShapeGeometry::Disk(d) => d.sample_position(u2),
+            ShapeGeometry::Cylinder(c) => c.sample_position(u2),
         }
     }
 

@@ -7,7 +7,9 @@
 pub mod data;
 pub mod obj;
 pub mod ply;
+pub mod serialized;
 
 pub use data::MeshData;
 pub use obj::load_obj;
 pub use ply::load_ply;
+pub use serialized::load_serialized;

@@ -9,10 +9,12 @@ use crate::desc::{ObjectClass, ObjectDesc, SceneDesc};
 use crate::emitter::{Emitter, SpotLight};
 use crate::error::{SceneError, SceneResult};
 use crate::film::{film_from_desc, FilmSpec};
-use crate::geometry::{cube_mesh, rectangle_mesh, Disk, ShapeGeometry, Sphere, TriangleMesh};
+use crate::geometry::{
+    cube_mesh, rectangle_mesh, Cylinder, Disk, ShapeGeometry, Sphere, TriangleMesh,
+};
 use crate::guide::{GuideParams, GuidingMethod};
 use crate::integrator::{GuidedSettings, PathSettings, Roulette};
-use crate::mesh::{load_obj, load_ply, MeshData};
+use crate::mesh::{load_obj, load_ply, load_serialized, MeshData};
 use crate::sampler::SamplerKind;
 use crate::texture::Texture;
 use glam::{Affine3A, Mat4, Vec3};
@@ -57,6 +59,12 @@ pub enum Strictness {
     /// (0.5), unknown shapes and emitters are skipped, an unknown integrator becomes `path`.
     Lenient,
 }
+
+/// Integrator plugins of other renderers' path-guiding research code that corpus scenes name (Müller et
+/// al.'s `guided_path` in Mitsuba 0.6, a Mitsuba 3 `path_guiding_integrator`). Their guides are not ours,
+/// so they are rendered with the unbiased path tracer and their `max_depth`/`rr_depth` (a documented
+/// mapping with a warning, not an error); their guiding parameters are ignored.
+pub const FOREIGN_GUIDING_INTEGRATORS: &[&str] = &["guided_path", "path_guiding_integrator"];
 
 /// Options for building a scene.
 #[derive(Clone, Debug, Default)]
@@ -260,8 +268,8 @@ impl Builder<'_> {
         let source = i.filter(|i| {
             matches!(
                 i.plugin.as_str(),
-                "path" | "volpath" | "direct" | "guided_path" | "guided" | "focal_path"
-            )
+                "path" | "volpath" | "direct" | "guided" | "focal_path"
+            ) || FOREIGN_GUIDING_INTEGRATORS.contains(&i.plugin.as_str())
         });
         match name.as_str() {
             "guided" | "focal_path" => {
@@ -322,6 +330,22 @@ impl Builder<'_> {
                 Ok(IntegratorSpec::Guided(Box::new(spec)))
             }
             "path" | "volpath" => Ok(IntegratorSpec::Path(read(source, -1)?)),
+            foreign if FOREIGN_GUIDING_INTEGRATORS.contains(&foreign) => {
+                let s = read(source, -1)?;
+                let depth = if s.max_depth == u32::MAX {
+                    "unlimited".to_string()
+                } else {
+                    s.max_depth.to_string()
+                };
+                let at = i.map_or_else(|| scene_path.display().to_string(), |i| i.loc.to_string());
+                self.warnings.push(format!(
+                    "{at}: integrator '{foreign}' is another renderer's path-guiding plugin; rendering it \
+                     with focal's unbiased path tracer 'path' (max_depth {depth}, rr_depth {}), its other \
+                     parameters ignored (use --guiding octree|gmm for focal guiding)",
+                    s.rr_depth
+                ));
+                Ok(IntegratorSpec::Path(s))
+            }
             "direct" => {
                 let mut s = read(None, -1)?;
                 s.max_depth = 2;
@@ -371,7 +395,39 @@ impl Builder<'_> {
     }
 
     fn add_shape(&mut self, o: &ObjectDesc) -> SceneResult<()> {
-        let to_world = o.transform_or_identity("to_world")?;
+        self.add_shape_under(o, &Mat4::IDENTITY)
+    }
+
+    /// `shapegroup` + `instance`: the group's shapes are copied into the scene, each moved by the
+    /// instance's `to_world` (instancing is flattened at build time: simple, at the cost of memory).
+    fn add_instance(&mut self, o: &ObjectDesc, parent: &Mat4) -> SceneResult<()> {
+        let to_world = *parent * o.transform_or_identity("to_world")?;
+        let mut groups = o
+            .children_of(&ObjectClass::Shape)
+            .filter(|c| c.object.plugin == "shapegroup");
+        let (Some(group), None) = (groups.next(), groups.next()) else {
+            return Err(o.error("an 'instance' needs exactly one <ref> to a 'shapegroup'"));
+        };
+        for child in group.object.children_of(&ObjectClass::Shape) {
+            let c = child.object.as_ref();
+            if c.children_of(&ObjectClass::Emitter).next().is_some() {
+                return Err(
+                    c.error("shapes in a 'shapegroup' cannot carry emitters (as in Mitsuba)")
+                );
+            }
+            match c.plugin.as_str() {
+                "shapegroup" => {
+                    return Err(c.error("a 'shapegroup' cannot contain another shapegroup"))
+                }
+                "instance" => return Err(c.error("a 'shapegroup' cannot contain instances")),
+                _ => self.add_shape_under(c, &to_world)?,
+            }
+        }
+        Ok(())
+    }
+
+    fn add_shape_under(&mut self, o: &ObjectDesc, parent: &Mat4) -> SceneResult<()> {
+        let to_world = *parent * o.transform_or_identity("to_world")?;
         let flip = o.bool_or("flip_normals", false)?;
         let geometry = match o.plugin.as_str() {
             "obj" | "ply" => {
@@ -385,6 +441,20 @@ impl Builder<'_> {
                 };
                 data.validate(&path)?;
                 if o.bool_or("face_normals", false)? {
+                    data.normals = None;
+                } else if data.normals.is_none() {
+                    data.normals = Some(data.compute_vertex_normals());
+                }
+                data.transform(&to_world);
+                ShapeGeometry::Mesh(mesh_from_data(data, flip))
+            }
+            "serialized" => {
+                let (path, loc) = o
+                    .resolve_path("filename")?
+                    .ok_or_else(|| o.error("shape 'serialized' needs a 'filename'"))?;
+                let m = load_serialized(&path, &loc, o.int_or("shape_index", 0)?)?;
+                let mut data = m.data;
+                if m.face_normals || o.bool_or("face_normals", false)? {
                     data.normals = None;
                 } else if data.normals.is_none() {
                     data.normals = Some(data.compute_vertex_normals());
@@ -430,6 +500,32 @@ impl Builder<'_> {
                 let d = Disk::new(Affine3A::from_mat4(to_world), flip)
                     .ok_or_else(|| o.error("degenerate disk transform (zero area)"))?;
                 ShapeGeometry::Disk(d)
+            }
+            // A group is only a declaration; its shapes appear through instances.
+            "shapegroup" => return Ok(()),
+            "instance" => return self.add_instance(o, parent),
+            "cylinder" => {
+                // Mitsuba: the unit tube along +Z from p0 to p1 with the given radius, then to_world.
+                let p0 = o.vec3_or("p0", Vec3::ZERO)?;
+                let p1 = o.vec3_or("p1", Vec3::Z)?;
+                let radius = o.float_or("radius", 1.0)? as f32;
+                let axis = p1 - p0;
+                let length = axis.length();
+                if !(radius > 0.0 && length > 0.0 && radius.is_finite() && length.is_finite()) {
+                    return Err(o.error(format!(
+                        "cylinder needs a positive radius and distinct p0, p1 (radius {radius}, length {length})"
+                    )));
+                }
+                let frame = crate::frame::Frame::from_normal(axis / length);
+                let local = Mat4::from_cols(
+                    (frame.s * radius).extend(0.0),
+                    (frame.t * radius).extend(0.0),
+                    axis.extend(0.0),
+                    p0.extend(1.0),
+                );
+                let c = Cylinder::new(Affine3A::from_mat4(to_world * local), flip)
+                    .map_err(|e| o.error(e))?;
+                ShapeGeometry::Cylinder(c)
             }
             _ => return self.unknown(o, "shape"),
         };
@@ -557,6 +653,40 @@ impl Builder<'_> {
                     irradiance: nonneg("irradiance", o.rgb_or("irradiance", Vec3::ONE)?)?,
                 }
             }
+            "envmap" => {
+                let (path, loc) = o
+                    .resolve_path("filename")?
+                    .ok_or_else(|| o.error("emitter 'envmap' needs a 'filename'"))?;
+                let (w, h, mut texels) = crate::texture::load_image(&path, false)
+                    .map_err(|e| SceneError::at(&loc, e))?;
+                let scale = o.float_or("scale", 1.0)? as f32;
+                if !(scale >= 0.0) || !scale.is_finite() {
+                    return Err(o.error(format!("envmap: scale must be non-negative, got {scale}")));
+                }
+                for t in &mut texels {
+                    *t = if t.is_finite() {
+                        t.max(Vec3::ZERO) * scale
+                    } else {
+                        Vec3::ZERO
+                    };
+                }
+                let m = glam::Mat3::from_mat4(to_world);
+                if !(m.determinant().abs() > 0.0) {
+                    return Err(o.error("envmap: degenerate to_world"));
+                }
+                match crate::emitter::EnvMap::new(w as usize, h as usize, texels, m) {
+                    Some(e) => Emitter::Envmap(Box::new(e)),
+                    None => {
+                        self.warnings.push(format!(
+                            "{}: envmap '{}' is black (skipped)",
+                            o.loc,
+                            path.display()
+                        ));
+                        return Ok(());
+                    }
+                }
+            }
+            "sunsky" | "sun" | "sky" => return self.sunsky_fallback(o, &to_world, weight),
             _ => return self.unknown(o, "emitter"),
         };
         if emitter.is_environment() && self.emitters.iter().any(|e| e.is_environment()) {
@@ -564,6 +694,86 @@ impl Builder<'_> {
         }
         self.emitters.push(emitter);
         self.emitter_weights.push(weight);
+        Ok(())
+    }
+}
+
+/// Stand-in sun and sky of the `--lenient` fallback for Mitsuba 0.6's `sunsky`, in the same units as
+/// the scene's other radiances only by convention: sun irradiance 10 (a diffuse white floor under a sun
+/// at the zenith reads 10/π ≈ 3.2) and sky radiance 0.5 (that floor reads 0.5 under the sky alone).
+const FALLBACK_SUN_IRRADIANCE: f32 = 10.0;
+const FALLBACK_SKY_RADIANCE: f32 = 0.5;
+
+impl Builder<'_> {
+    /// Mitsuba 0.6's `sunsky`/`sun`/`sky` (Preetham/Hosek-Wilkie spectral models) are not implemented. In
+    /// strict mode this is an error naming the element. With `--lenient` they become a directional sun
+    /// towards Mitsuba's sun position for the element's date, time and place (or `sun_direction`) and a
+    /// constant sky, scaled by `scale`, `sun_scale` and `sky_scale`, with a warning saying so.
+    fn sunsky_fallback(&mut self, o: &ObjectDesc, to_world: &Mat4, weight: f32) -> SceneResult<()> {
+        let msg = format!(
+            "emitter '{}' (Mitsuba 0.6's physical sun/sky model) is not supported; --lenient replaces it \
+             by a directional sun at Mitsuba's sun position plus a constant sky (approximate brightness)",
+            o.plugin
+        );
+        if self.opts.strictness == Strictness::Strict {
+            return Err(o.error(msg));
+        }
+        use crate::emitter::sun_position::{sun_direction_local, SunTimePlace};
+        let d = SunTimePlace::default();
+        let at = SunTimePlace {
+            year: o.int_or("year", d.year)?,
+            month: o.int_or("month", d.month)?,
+            day: o.int_or("day", d.day)?,
+            hour: o.float_or("hour", d.hour)?,
+            minute: o.float_or("minute", d.minute)?,
+            second: o.float_or("second", d.second)?,
+            latitude: o.float_or("latitude", d.latitude)?,
+            longitude: o.float_or("longitude", d.longitude)?,
+            timezone: o.float_or("timezone", d.timezone)?,
+        };
+        if !(1..=12).contains(&at.month) || !(1..=31).contains(&at.day) {
+            return Err(o.error(format!("invalid date {}-{}-{}", at.year, at.month, at.day)));
+        }
+        let local = match o.prop("sun_direction") {
+            Some(_) => o.vec3_or("sun_direction", Vec3::Y)?,
+            None => sun_direction_local(&at).as_vec3(),
+        };
+        let to_sun = to_world.transform_vector3(local);
+        if !(to_sun.length_squared() > 0.0) || !to_sun.is_finite() {
+            return Err(o.error("sunsky: the sun direction is degenerate"));
+        }
+        let scale = o.float_or("scale", 1.0)? as f32;
+        let sun_scale = scale * o.float_or("sun_scale", 1.0)? as f32;
+        let sky_scale = scale * o.float_or("sky_scale", 1.0)? as f32;
+        if !(sun_scale >= 0.0 && sky_scale >= 0.0) {
+            return Err(o.error("sunsky: scales must be non-negative"));
+        }
+        let to_sun = to_sun.normalize();
+        self.warnings.push(format!(
+            "{}: {msg}: sun towards ({:.3}, {:.3}, {:.3}) with irradiance {}, sky radiance {}",
+            o.loc,
+            to_sun.x,
+            to_sun.y,
+            to_sun.z,
+            FALLBACK_SUN_IRRADIANCE * sun_scale,
+            FALLBACK_SKY_RADIANCE * sky_scale
+        ));
+        if o.plugin != "sky" {
+            self.emitters.push(Emitter::Directional {
+                direction: -to_sun,
+                irradiance: Vec3::splat(FALLBACK_SUN_IRRADIANCE * sun_scale),
+            });
+            self.emitter_weights.push(weight);
+        }
+        if o.plugin != "sun" {
+            if self.emitters.iter().any(|e| e.is_environment()) {
+                return Err(o.error("only one environment emitter is allowed"));
+            }
+            self.emitters.push(Emitter::Constant {
+                radiance: Vec3::splat(FALLBACK_SKY_RADIANCE * sky_scale),
+            });
+            self.emitter_weights.push(weight);
+        }
         Ok(())
     }
 }

@@ -183,6 +183,17 @@ impl Scene {
                     shape,
                 }
             }
+            ShapeGeometry::Cylinder(c) => {
+                let (p, n, uv, tangent) = c.surface(ray.at(hit.t));
+                SurfaceInteraction {
+                    t: hit.t,
+                    p,
+                    ng: n,
+                    sh_frame: Frame::from_normal_tangent(n, tangent),
+                    uv,
+                    shape,
+                }
+            }
         }
     }
 

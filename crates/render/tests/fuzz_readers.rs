@@ -1,0 +1,199 @@
+//! Fuzzing of the scene readers by byte mutation (proptest): mutated scene XML (parsed and built, with
+//! OBJ, PLY and serialized meshes it references) and mutated OBJ, PLY and serialized mesh files must
+//! never panic, and every failure must be an error that says where (file, and line where there is one).
+//!
+//! The default run is short (a few hundred cases in all). The long, benchmark-style run is
+//! `tools/fuzz-readers.sh` (sets `FOCAL_FUZZ_CASES`, release mode); see the README.
+
+use focal_render::desc::xml::parse_scene_str;
+use focal_render::error::SourceLoc;
+use focal_render::mesh::serialized::{parse_serialized, write_serialized};
+use focal_render::mesh::{load_obj, load_ply, load_serialized, MeshData};
+use focal_render::scene::{build_scene, BuildOptions, Strictness};
+use glam::{Vec2, Vec3};
+use proptest::prelude::*;
+use std::path::{Path, PathBuf};
+use std::sync::{Arc, OnceLock};
+
+const OBJ: &str = "# quad\nv 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nvt 0 0\nvt 1 0\nvt 1 1\nvt 0 1\n\
+vn 0 0 1\nf 1/1/1 2/2/1 3/3/1 4/4/1\n";
+
+const PLY: &str = "ply\nformat ascii 1.0\nelement vertex 4\nproperty float x\nproperty float y\n\
+property float z\nproperty float u\nproperty float v\nelement face 2\nproperty list uchar int vertex_indices\n\
+end_header\n0 0 0 0 0\n1 0 0 1 0\n1 1 0 1 1\n0 1 0 0 1\n3 0 1 2\n3 0 2 3\n";
+
+const XML: &str = r#"<scene version="0.6.0">
+  <default name="spp" value="4"/>
+  <integrator type="guided_path"><integer name="maxDepth" value="5"/></integrator>
+  <sensor type="perspective"><float name="fov" value="40"/>
+    <transform name="toWorld"><lookAt origin="0, 1, 5" target="0, 0, 0" up="0, 1, 0"/></transform>
+    <sampler type="independent"><integer name="sampleCount" value="$spp"/></sampler>
+    <film type="hdrfilm"><integer name="width" value="8"/><integer name="height" value="6"/>
+      <rfilter type="box"/></film></sensor>
+  <bsdf type="twosided" id="gold"><bsdf type="conductor"><string name="material" value="Au"/></bsdf></bsdf>
+  <bsdf type="roughplastic" id="plastic"><float name="alpha" value="0.2"/><boolean name="nonlinear" value="true"/></bsdf>
+  <shape type="obj"><string name="filename" value="quad.obj"/><ref id="gold"/>
+    <transform name="toWorld"><scale x="2" y="2"/><rotate x="1" angle="-90"/></transform></shape>
+  <shape type="ply"><string name="filename" value="quad.ply"/><ref id="plastic"/></shape>
+  <shape type="serialized"><string name="filename" value="mesh.serialized"/><integer name="shapeIndex" value="1"/>
+    <boolean name="faceNormals" value="true"/></shape>
+  <shape type="cylinder"><float name="radius" value="0.3"/><boolean name="flipNormals" value="true"/>
+    <bsdf type="dielectric"><string name="intIOR" value="bk7"/></bsdf></shape>
+  <shape type="sphere"><point name="center" x="0" y="2" z="0"/><float name="radius" value="0.2"/>
+    <emitter type="area"><rgb name="radiance" value="10, 9, 8"/></emitter></shape>
+  <emitter type="spot"><transform name="toWorld"><lookAt origin="0,3,0" target="0,0,0" up="0,0,1"/></transform></emitter>
+</scene>
+"#;
+
+fn serialized_seed() -> Vec<u8> {
+    let quad = MeshData {
+        positions: vec![Vec3::ZERO, Vec3::X, Vec3::new(1.0, 1.0, 0.0), Vec3::Y],
+        normals: Some(vec![Vec3::Z; 4]),
+        uvs: Some(vec![Vec2::ZERO, Vec2::X, Vec2::ONE, Vec2::Y]),
+        indices: vec![[0, 1, 2], [0, 2, 3]],
+    };
+    let tri = MeshData {
+        positions: vec![Vec3::ZERO, Vec3::X, Vec3::Z],
+        normals: None,
+        uvs: None,
+        indices: vec![[0, 1, 2]],
+    };
+    write_serialized(&[(&quad, "quad"), (&tri, "tri")], 4)
+}
+
+/// A directory (one per test process) holding the unmutated mesh files the seed XML references.
+fn seed_dir() -> &'static Path {
+    static DIR: OnceLock<PathBuf> = OnceLock::new();
+    DIR.get_or_init(|| {
+        let dir = std::env::temp_dir().join(format!("focal-fuzz-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        std::fs::write(dir.join("quad.obj"), OBJ).unwrap();
+        std::fs::write(dir.join("quad.ply"), PLY).unwrap();
+        std::fs::write(dir.join("mesh.serialized"), serialized_seed()).unwrap();
+        dir
+    })
+}
+
+fn cases() -> u32 {
+    std::env::var("FOCAL_FUZZ_CASES")
+        .ok()
+        .and_then(|v| v.parse().ok())
+        .unwrap_or(48)
+}
+
+/// One edit of a byte string: replace, insert or delete at a position (taken modulo the length).
+#[derive(Clone, Debug)]
+enum Edit {
+    Replace(usize, u8),
+    Insert(usize, u8),
+    Delete(usize),
+    /// Copy a run of bytes elsewhere (duplicates tags, numbers, headers).
+    Splice(usize, usize, usize),
+    Truncate(usize),
+}
+
+fn edits() -> impl Strategy<Value = Vec<Edit>> {
+    let byte = prop_oneof![
+        any::<u8>(),
+        // Bytes that matter to the formats: digits, signs, separators, XML syntax.
+        prop::sample::select(b"0123456789-+.eE ,<>/\"=\n\0\xff".to_vec()),
+    ];
+    let edit = prop_oneof![
+        4 => (any::<usize>(), byte.clone()).prop_map(|(i, b)| Edit::Replace(i, b)),
+        2 => (any::<usize>(), byte).prop_map(|(i, b)| Edit::Insert(i, b)),
+        2 => any::<usize>().prop_map(Edit::Delete),
+        1 => (any::<usize>(), any::<usize>(), 1usize..64).prop_map(|(a, b, n)| Edit::Splice(a, b, n)),
+        1 => any::<usize>().prop_map(Edit::Truncate),
+    ];
+    prop::collection::vec(edit, 1..12)
+}
+
+fn mutate(seed: &[u8], edits: &[Edit]) -> Vec<u8> {
+    let mut b = seed.to_vec();
+    for e in edits {
+        let n = b.len().max(1);
+        match *e {
+            Edit::Replace(i, v) if !b.is_empty() => b[i % n] = v,
+            Edit::Insert(i, v) => b.insert(i % (b.len() + 1), v),
+            Edit::Delete(i) if !b.is_empty() => {
+                b.remove(i % n);
+            }
+            Edit::Splice(from, to, len) if !b.is_empty() => {
+                let from = from % n;
+                let run: Vec<u8> = b[from..(from + len).min(b.len())].to_vec();
+                let to = to % (b.len() + 1);
+                b.splice(to..to, run);
+            }
+            Edit::Truncate(i) => b.truncate(i % (b.len() + 1)),
+            _ => {}
+        }
+    }
+    b
+}
+
+fn loc(file: &Path) -> SourceLoc {
+    SourceLoc {
+        file: Arc::new(file.to_path_buf()),
+        line: 3,
+        col: 5,
+    }
+}
+
+/// A mutated mesh file, written next to the seeds under a unique name.
+fn write_case(name: &str, bytes: &[u8]) -> PathBuf {
+    static COUNTER: std::sync::atomic::AtomicUsize = std::sync::atomic::AtomicUsize::new(0);
+    let k = COUNTER.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+    let path = seed_dir().join(format!("case{k}-{name}"));
+    std::fs::write(&path, bytes).unwrap();
+    path
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: cases(), failure_persistence: None, ..ProptestConfig::default() })]
+
+    #[test]
+    fn mutated_scene_xml_never_panics(e in edits()) {
+        let bytes = mutate(XML.as_bytes(), &e);
+        let Ok(text) = std::str::from_utf8(&bytes) else { return Ok(()) };
+        let path = seed_dir().join("scene.xml");
+        for strictness in [Strictness::Strict, Strictness::Lenient] {
+            let r = parse_scene_str(text, &path, &[]).and_then(|d| {
+                build_scene(&d, &BuildOptions { strictness, ..Default::default() })
+            });
+            if let Err(err) = r {
+                let msg = err.to_string();
+                prop_assert!(err.loc.is_some(), "error without a location: {msg}");
+                prop_assert!(!err.message.is_empty());
+            }
+        }
+    }
+
+    #[test]
+    fn mutated_obj_never_panics(e in edits()) {
+        let path = write_case("m.obj", &mutate(OBJ.as_bytes(), &e));
+        if let Err(err) = load_obj(&path, &loc(&path), true) {
+            prop_assert!(err.to_string().contains("m.obj"), "{err}");
+        }
+        std::fs::remove_file(&path).ok();
+    }
+
+    #[test]
+    fn mutated_ply_never_panics(e in edits()) {
+        let path = write_case("m.ply", &mutate(PLY.as_bytes(), &e));
+        if let Err(err) = load_ply(&path, &loc(&path)) {
+            prop_assert!(err.to_string().contains("m.ply"), "{err}");
+        }
+        std::fs::remove_file(&path).ok();
+    }
+
+    #[test]
+    fn mutated_serialized_never_panics(e in edits(), index in 0i64..3) {
+        let bytes = mutate(&serialized_seed(), &e);
+        let _ = parse_serialized(&bytes, index);
+        let path = write_case("m.serialized", &bytes);
+        if let Err(err) = load_serialized(&path, &loc(&path), index) {
+            prop_assert!(err.to_string().contains("m.serialized"), "{err}");
+        }
+        std::fs::remove_file(&path).ok();
+    }
+}
