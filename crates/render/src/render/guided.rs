@@ -201,7 +201,8 @@ pub fn render_guided(
         Spp(u32),
         Until(Instant),
     }
-    let is_past = |plan: &Plan| matches!(plan, Plan::Until(deadline) if Instant::now() >= *deadline);
+    let is_past =
+        |plan: &Plan| matches!(plan, Plan::Until(deadline) if Instant::now() >= *deadline);
     let (training_plans, final_plan, total_spp_hint): (Vec<Plan>, Plan, u64) = match settings.budget
     {
         TrainingBudget::Samples {
@@ -265,9 +266,9 @@ pub fn render_guided(
         if training && (fell_back(&fallback) || index > 0 && is_past(&plan)) {
             continue;
         }
-        let guided =
-            (index > 0 || settings.pretrained) && guide.is_some() && !fell_back(&fallback);
-        let mut runner = PassRunner::new(scene, camera, spec, &settings.render, halves);
+        let guided = (index > 0 || settings.pretrained) && guide.is_some() && !fell_back(&fallback);
+        let mut runner = PassRunner::new(scene, camera, spec, &settings.render, halves)
+            .with_index_offset(total_spp);
         last_runner_threads = runner.threads();
         let iter_start = Instant::now();
         let mut segments = 0u64;
@@ -372,13 +373,7 @@ pub fn render_guided(
                 .map(|s| s.spp as f64)
                 .sum();
             used.iter()
-                .map(|s| {
-                    if s.guided {
-                        0.0
-                    } else {
-                        s.spp as f64 / total
-                    }
-                })
+                .map(|s| if s.guided { 0.0 } else { s.spp as f64 / total })
                 .collect()
         }
         Combine::InverseVariance => {

@@ -115,6 +115,7 @@ fn render_tile(
     settings: &RenderSettings,
     tile: (IVec2, UVec2),
     first: u32,
+    index_offset: u32,
     count: u32,
 ) -> TileOutput {
     let (offset, size) = tile;
@@ -126,7 +127,8 @@ fn render_tile(
             let pixel = offset + IVec2::new(px, py);
             let pixel_index = pixel.y as u64 * width + pixel.x as u64;
             for s in first..first + count {
-                let mut sampler = Sampler::new(settings.sampler, settings.seed, pixel_index, s);
+                let index = s.wrapping_add(index_offset);
+                let mut sampler = Sampler::new(settings.sampler, settings.seed, pixel_index, index);
                 let film_pos = pixel.as_vec2() + sampler.next_2d();
                 let aperture = sampler.next_2d();
                 let ray = camera.generate_ray(film_pos, aperture);
@@ -157,6 +159,7 @@ pub struct PassRunner<'a> {
     tiles: Vec<(IVec2, UVec2)>,
     spp_done: u32,
     passes: u32,
+    index_offset: u32,
 }
 
 impl<'a> PassRunner<'a> {
@@ -191,7 +194,17 @@ impl<'a> PassRunner<'a> {
             tiles: tiles(spec),
             spp_done: 0,
             passes: 0,
+            index_offset: 0,
         }
+    }
+
+    /// The runner's samples draw from the random streams of sample indices `offset + i` rather than
+    /// `i`: the iterations of a guided render use disjoint streams, so their images are independent
+    /// (with the same streams, two iterations would share camera rays and first bounces, and their
+    /// combination and variance estimates would assume an independence they lack).
+    pub fn with_index_offset(mut self, offset: u32) -> Self {
+        self.index_offset = offset;
+        self
     }
 
     /// Worker threads.
@@ -250,6 +263,7 @@ impl<'a> PassRunner<'a> {
         on_tile: &(dyn Fn(u64) + Sync),
     ) -> Vec<TrainingSegment> {
         let first = self.spp_done;
+        let index_offset = self.index_offset;
         let (scene, camera, films, settings, tiles) = (
             self.scene,
             self.camera,
@@ -262,7 +276,15 @@ impl<'a> PassRunner<'a> {
                 .par_iter()
                 .map(|&tile| {
                     let out = render_tile(
-                        scene, camera, integrator, films, settings, tile, first, count,
+                        scene,
+                        camera,
+                        integrator,
+                        films,
+                        settings,
+                        tile,
+                        first,
+                        index_offset,
+                        count,
                     );
                     on_tile(tile.1.x as u64 * tile.1.y as u64 * count as u64);
                     out
