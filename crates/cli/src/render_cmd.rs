@@ -89,11 +89,12 @@ pub struct GuidingArgs {
     /// Do not train on segments that escaped the scene (Rath et al. drop them).
     #[arg(long)]
     pub no_escaped: bool,
-    /// Keep guiding even where it does not pay (by default a time-budget render that finds unguided
-    /// path tracing over twice as efficient after the first guided iterations renders the rest
-    /// unguided).
+    /// Give up guiding where it does not pay: a time-budget render that finds unguided path tracing
+    /// over twice as efficient after the first two guided iterations renders the rest unguided. Off by
+    /// default: the few-sample estimate of the path tracer's variance misses rare caustic paths and
+    /// falls back on the caustic scene too.
     #[arg(long)]
-    pub no_fallback: bool,
+    pub fallback: bool,
     /// Octree relative split threshold (orth.threshold).
     #[arg(long)]
     pub octree_threshold: Option<f64>,
@@ -319,7 +320,7 @@ pub fn run(a: RenderArgs) -> Result<()> {
                 budget,
                 combine,
                 pretrained: g.load_guide.is_some(),
-                fallback: !g.no_fallback,
+                fallback: g.fallback,
             };
             let out = render_guided(
                 &loaded.scene,
