@@ -182,3 +182,148 @@ pub fn weighted_image(iterations: &[IterationImage], weights: &[f64]) -> Image {
     }
     out.unwrap_or_else(|| iterations.last().expect("at least one iteration").image())
 }
+
+/// Radius (pixels) of the box filter that smooths the denominator of
+/// [`robust_per_sample_relative_variance`].
+pub const ROBUST_DENOMINATOR_RADIUS: usize = 4;
+/// Share of the largest per-pixel terms [`robust_per_sample_relative_variance`] drops (as the
+/// benchmark's relMSE drops its 0.1 % largest per-pixel errors).
+pub const ROBUST_TRIM: f64 = 1e-3;
+
+/// The per-pixel channel mean of `image` box-filtered over a (2r + 1)² window (clamped at the borders).
+pub fn smoothed_luminance(image: &Image, radius: usize) -> Vec<f64> {
+    let (w, h) = (image.width as usize, image.height as usize);
+    let mean: Vec<f64> = image
+        .rgb
+        .iter()
+        .map(|p| (p[0] as f64 + p[1] as f64 + p[2] as f64) / 3.0)
+        .collect();
+    let blur = |src: &[f64], stride: usize, len: usize, lines: usize, step: usize| {
+        let mut out = vec![0.0; src.len()];
+        for line in 0..lines {
+            let at = |i: usize| src[line * step + i * stride];
+            for i in 0..len {
+                let lo = i.saturating_sub(radius);
+                let hi = (i + radius).min(len - 1);
+                let s: f64 = (lo..=hi).map(at).sum();
+                out[line * step + i * stride] = s / (hi - lo + 1) as f64;
+            }
+        }
+        out
+    };
+    if w == 0 || h == 0 {
+        return mean;
+    }
+    let rows = blur(&mean, 1, w, h, w);
+    blur(&rows, w, h, w, 1)
+}
+
+/// The relative per-sample variance σ² of an estimator from two independent images of it, as
+/// [`per_sample_relative_variance`] but robust to the self-normalisation that hides rare large
+/// samples: each pixel's squared difference is divided by `denominator`² + ε with a *smoothed* mean
+/// ([`smoothed_luminance`]; a pooled pixel holding a firefly F over n samples would otherwise cap its
+/// own relative variance at about n), and the [`ROBUST_TRIM`] largest terms are dropped.
+pub fn robust_per_sample_relative_variance(
+    a: &Image,
+    na: u32,
+    b: &Image,
+    nb: u32,
+    denominator: &[f64],
+) -> Option<f64> {
+    if na == 0 || nb == 0 || a.rgb.len() != denominator.len() || b.rgb.len() != denominator.len() {
+        return None;
+    }
+    let scale = 1.0 / (1.0 / na as f64 + 1.0 / nb as f64);
+    let mut terms: Vec<f64> = a
+        .rgb
+        .iter()
+        .zip(&b.rgb)
+        .zip(denominator)
+        .map(|((pa, pb), m)| {
+            let d2: f64 = (0..3)
+                .map(|c| {
+                    let d = pa[c] as f64 - pb[c] as f64;
+                    d * d
+                })
+                .sum();
+            d2 / 3.0 * scale / (m * m + RELATIVE_EPSILON)
+        })
+        .collect();
+    let keep = terms.len() - (terms.len() as f64 * ROBUST_TRIM) as usize;
+    if keep == 0 {
+        return None;
+    }
+    terms.select_nth_unstable_by(keep - 1, f64::total_cmp);
+    let v = terms[..keep].iter().sum::<f64>() / keep as f64;
+    v.is_finite().then_some(v)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn constant(w: u32, h: u32, v: f32) -> Image {
+        let mut img = Image::new(w, h);
+        img.rgb.iter_mut().for_each(|p| *p = [v; 3]);
+        img
+    }
+
+    #[test]
+    fn smoothing_keeps_constants_and_spreads_a_spike_over_its_window() {
+        let flat = smoothed_luminance(&constant(7, 5, 2.0), 2);
+        assert!(flat.iter().all(|v| (v - 2.0).abs() < 1e-12));
+        let mut spike = constant(20, 20, 0.0);
+        spike.rgb[10 * 20 + 10] = [81.0; 3];
+        let s = smoothed_luminance(&spike, 4);
+        // Away from the borders the spike is spread evenly over the 9×9 windows containing it.
+        assert!((s[10 * 20 + 10] - 1.0).abs() < 1e-12);
+        assert!((s[6 * 20 + 14] - 1.0).abs() < 1e-12);
+        assert_eq!(s[5 * 20 + 10], 0.0);
+        assert!((s.iter().sum::<f64>() - 81.0).abs() < 1e-9);
+    }
+
+    #[test]
+    fn a_firefly_counts_fully_against_a_smoothed_denominator() {
+        let (w, h) = (16, 16);
+        let b = constant(w, h, 1.0);
+        let mut a = b.clone();
+        let spike = 8 * 16 + 8;
+        let d = 100.0f64;
+        a.rgb[spike] = [(1.0 + d) as f32; 3];
+        let mut pooled = a.clone();
+        pooled.scale(0.5);
+        pooled.add_scaled(&b, 0.5);
+        // Self-normalised: the firefly's own pixel mean (1 + d/2) nearly cancels its variance.
+        let naive = per_sample_relative_variance(&a, 1, &b, 1, &pooled).unwrap();
+        let naive_hand = d * d * 0.5 / ((1.0 + d / 2.0).powi(2) + RELATIVE_EPSILON) / 256.0;
+        assert!((naive - naive_hand).abs() < 1e-9 * naive_hand);
+        // Smoothed: the denominator is the 9×9 mean, 1 + (d/2)/81 (256 pixels: nothing trimmed).
+        let den = smoothed_luminance(&pooled, ROBUST_DENOMINATOR_RADIUS);
+        let robust = robust_per_sample_relative_variance(&a, 1, &b, 1, &den).unwrap();
+        let m = 1.0 + d / 2.0 / 81.0;
+        let robust_hand = d * d * 0.5 / (m * m + RELATIVE_EPSILON) / 256.0;
+        assert!(
+            (robust - robust_hand).abs() < 1e-9 * robust_hand,
+            "{robust} {robust_hand}"
+        );
+        assert!(robust > 500.0 * naive);
+    }
+
+    #[test]
+    fn trimming_drops_the_largest_terms() {
+        // 2000 pixels: the two largest terms (0.1 %) are dropped, so two fireflies leave no trace.
+        let b = constant(100, 20, 1.0);
+        let mut a = b.clone();
+        a.rgb[5] = [50.0; 3];
+        a.rgb[1999] = [70.0; 3];
+        let den = vec![1.0; 2000];
+        assert_eq!(
+            robust_per_sample_relative_variance(&a, 1, &b, 1, &den),
+            Some(0.0)
+        );
+        a.rgb[7] = [2.0; 3];
+        let v = robust_per_sample_relative_variance(&a, 1, &b, 1, &den).unwrap();
+        let hand = 0.5 / (1.0 + RELATIVE_EPSILON) / 1998.0;
+        assert!((v - hand).abs() < 1e-12, "{v} {hand}");
+    }
+}

@@ -19,8 +19,8 @@
 //! and sample budget give the same learned model and image whatever the number of threads.
 
 use super::combine::{
-    inverse_variance_weights, per_sample_relative_variance, pooled_image, weighted_image, Combine,
-    IterationImage,
+    inverse_variance_weights, pooled_image, robust_per_sample_relative_variance,
+    smoothed_luminance, weighted_image, Combine, IterationImage, ROBUST_DENOMINATOR_RADIUS,
 };
 use super::{next_pass_spp, PassRunner, Progress, ProgressCounter, RenderSettings, RenderStats};
 use crate::camera::Camera;
@@ -79,15 +79,17 @@ pub struct GuidedRenderSettings {
     /// one guided iteration.
     pub pretrained: bool,
     /// Give up guiding if it does not pay (time budget and inverse-variance combination only): after
-    /// [`FALLBACK_GUIDED_ITERATIONS`] guided training iterations, the per-sample relative variance of the unguided first
-    /// iteration (from its two halves) and of the guided ones (from the difference of two guided
-    /// iterations) are weighed by their time per sample; if unguided rendering is over
-    /// [`FALLBACK_MARGIN`] times as efficient, training stops and the rest of the budget is rendered
-    /// unguided, without the guide's cost (the Cornell box: guiding costs several times a path tracer's
-    /// time per sample and gains nothing). The output then combines the unguided iterations. Not a
-    /// default: with two samples per pixel the path tracer's variance estimate misses rare paths (the
-    /// caustic scene's light through the glass sphere), so it falls back there too; measured
-    /// unguided/guided cost ratios of 0.27–0.32 on the caustic against 0.26–0.36 on the Cornell box.
+    /// [`FALLBACK_GUIDED_ITERATIONS`] guided training iterations, the per-sample relative variances of
+    /// the unguided first iteration and of the guided ones are weighed by their time per sample; if
+    /// unguided rendering is over [`FALLBACK_MARGIN`] times as efficient, training stops and the rest of
+    /// the budget is rendered unguided, without the guide's cost (the Cornell box: guiding costs several
+    /// times a path tracer's time per sample and gains nothing). The output then combines the unguided
+    /// iterations. The variances are robust estimates (smoothed denominator, trimmed, and for the path
+    /// tracer also its difference from the guided mean: see `fallback_check`). Not a default: measured
+    /// guided/unguided cost ratios (`--time 10`, gmm, 3–4 seeds) were 1.4–1.95 on the caustic scene and
+    /// 2.3–3.05 on the Cornell box, so the margin of 2 separates them, but narrowly; at two guided
+    /// iterations the variances say little about the trained guide and the ratio mostly measures the
+    /// guide's cost per sample.
     pub fallback: bool,
 }
 
@@ -119,6 +121,13 @@ pub struct IterationStats {
 /// The outcome of the fallback check ([`GuidedRenderSettings::fallback`]), for the JSON record.
 #[derive(Clone, Copy, Debug, serde::Serialize)]
 pub struct FallbackCheck {
+    /// The unguided per-sample relative variance used: the larger of the halves' estimate and the
+    /// estimate from the difference to the guided mean.
+    pub unguided_variance: f64,
+    /// The unguided per-sample relative variance from the first iteration's halves alone.
+    pub unguided_halves_variance: f64,
+    /// The guided per-sample relative variance (from two guided iterations).
+    pub guided_variance: f64,
     /// Relative per-sample variance × seconds per sample of unguided rendering.
     pub unguided_cost: f64,
     /// The same for guided rendering.
@@ -156,15 +165,46 @@ fn fallback_check(images: &[IterationImage], stats: &[IterationStats]) -> Option
     let [(g1, s1), (g2, s2)] = guided.get(guided.len().checked_sub(2)?..)? else {
         return None;
     };
-    let pooled = pooled_image(images);
-    let unguided_var =
-        per_sample_relative_variance(&first.a.0, first.a.1, &first.b.0, first.b.1, &pooled)?;
-    let guided_var =
-        per_sample_relative_variance(&g1.image(), g1.spp(), &g2.image(), g2.spp(), &pooled)?;
+    let denominator = smoothed_luminance(&pooled_image(images), ROBUST_DENOMINATOR_RADIUS);
+    let halves_var = robust_per_sample_relative_variance(
+        &first.a.0,
+        first.a.1,
+        &first.b.0,
+        first.b.1,
+        &denominator,
+    )?;
+    let guided_var = robust_per_sample_relative_variance(
+        &g1.image(),
+        g1.spp(),
+        &g2.image(),
+        g2.spp(),
+        &denominator,
+    )?;
+    // The halves alone underestimate the path tracer's variance where its contribution is rare: with
+    // few samples a caustic pixel is mostly 0 in both halves. Its difference from the (unbiased) guided
+    // mean G sees the missing light: E[(U − G)²] = σ_u²/n_u + σ_g²/n_g per pixel, so
+    // σ_u² = n_u·(D − σ_g²/n_g) with D the mean relative squared difference.
+    let (nu, ng) = (first.spp() as f64, (g1.spp() + g2.spp()) as f64);
+    let mut guided_mean = g1.image();
+    guided_mean.scale(g1.spp() as f64 / ng);
+    guided_mean.add_scaled(&g2.image(), g2.spp() as f64 / ng);
+    let mixed = robust_per_sample_relative_variance(
+        &first.image(),
+        first.spp(),
+        &guided_mean,
+        ng as u32,
+        &denominator,
+    )?;
+    let difference = mixed * (1.0 / nu + 1.0 / ng);
+    let cross_var = nu * (difference - guided_var / ng);
+    let unguided_var = halves_var.max(cross_var);
     let per_sample = |s: &IterationStats| s.render_s / s.spp.max(1) as f64;
     let unguided_cost = unguided_var * per_sample(first_stats);
     let guided_cost = guided_var * (s1.render_s + s2.render_s) / (s1.spp + s2.spp).max(1) as f64;
     Some(FallbackCheck {
+        unguided_variance: unguided_var,
+        unguided_halves_variance: halves_var,
+        guided_variance: guided_var,
         unguided_cost,
         guided_cost,
         fell_back: unguided_cost * FALLBACK_MARGIN < guided_cost,
