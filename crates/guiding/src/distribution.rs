@@ -81,6 +81,10 @@ pub struct TrainingSegment {
     pub weight: f32,
     /// The full sampling pdf p_mix(ω) used at x_k (BSDF/guide mixture, or BSDF alone when unguided).
     pub pdf: f32,
+    /// The BSDF's own sampling pdf of ω at x_k (equal to `pdf` when unguided). With `pdf` it tells a
+    /// renderer what sampling ω by the BSDF alone would have cost: the segment's second moment under
+    /// BSDF sampling is c²·pdf/bsdf_pdf (c sampled with `pdf`).
+    pub bsdf_pdf: f32,
     /// True if the endpoint x_{k+1} is glossy (min roughness < 0.3): a virtual image is possible, so the
     /// whole forward line is a converging candidate and the backward line a diverging one.
     pub glossy_endpoint: bool,

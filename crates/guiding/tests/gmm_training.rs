@@ -84,6 +84,7 @@ fn virtual_image_batch(rng: &mut Rng, n: usize) -> Vec<TrainingSegment> {
                 distance: (0.3 * rng.f64() * exit_distance(aabb, origin, d)) as f32,
                 weight: 0.5,
                 pdf: (1.0 / (4.0 * PI)) as f32,
+                bsdf_pdf: (1.0 / (4.0 * PI)) as f32,
                 glossy_endpoint: true,
             }
         })
@@ -325,6 +326,7 @@ fn near_duplicate_components_merge_but_not_below_k_min() {
                 distance: 2e-4,
                 weight: 1.0,
                 pdf: 0.1,
+                bsdf_pdf: 0.1,
                 glossy_endpoint: false,
             }
         })
@@ -577,6 +579,7 @@ fn degenerate_inputs_give_finite_models() {
         distance,
         weight,
         pdf: 0.3,
+        bsdf_pdf: 0.3,
         glossy_endpoint: glossy,
     };
     let cases: Vec<(&str, Vec<TrainingSegment>, bool)> = vec![
@@ -661,10 +664,12 @@ fn degenerate_inputs_give_finite_models() {
                 seg(DVec3::new(0.0, 0.5, 0.0), DVec3::X, -1.0, 1.0, false),
                 TrainingSegment {
                     pdf: f32::NAN,
+                    bsdf_pdf: f32::NAN,
                     ..seg(DVec3::new(0.0, 0.5, 0.0), DVec3::X, 1.0, 1.0, false)
                 },
                 TrainingSegment {
                     pdf: 0.0,
+                    bsdf_pdf: 0.0,
                     ..seg(DVec3::new(0.0, 0.5, 0.0), DVec3::X, 1.0, 1.0, false)
                 },
             ],

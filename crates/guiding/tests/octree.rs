@@ -70,6 +70,7 @@ fn focal_segments(rng: &mut Rng, n: usize) -> Vec<TrainingSegment> {
                 distance: (back + forward) as f32,
                 weight: 1.0,
                 pdf: (1.0 / (4.0 * PI)) as f32,
+                bsdf_pdf: (1.0 / (4.0 * PI)) as f32,
                 glossy_endpoint: false,
             }
         })
@@ -90,6 +91,7 @@ fn virtual_image_segments(rng: &mut Rng, n: usize) -> Vec<TrainingSegment> {
                 distance: (0.3 * rng.f64() * exit(aabb, origin, d)) as f32,
                 weight: 0.5,
                 pdf: (1.0 / (4.0 * PI)) as f32,
+                bsdf_pdf: (1.0 / (4.0 * PI)) as f32,
                 glossy_endpoint: true,
             }
         })

@@ -167,6 +167,7 @@ pub fn segment_through(rng: &mut Rng, aabb: Aabb3, y: DVec3, w: f32) -> Training
         distance: (back + forward) as f32,
         weight: w,
         pdf: (1.0 / (4.0 * PI)) as f32,
+        bsdf_pdf: (1.0 / (4.0 * PI)) as f32,
         glossy_endpoint: false,
     }
 }

@@ -231,6 +231,7 @@ impl Integrator for GuidedPathIntegrator<'_> {
                         distance: -1.0,
                         weight: 0.0,
                         pdf: step.pdf,
+                        bsdf_pdf: step.bsdf_pdf,
                         glossy_endpoint: false,
                     },
                     result_before: result,
@@ -291,6 +292,8 @@ struct Step {
     /// The pdf the direction was drawn with (the mixture's, or the BSDF's at unguided vertices; for a
     /// delta lobe the BSDF branch's probability, used only for MIS against nothing).
     pdf: f32,
+    /// The BSDF's own pdf of the direction.
+    bsdf_pdf: f32,
     eta: f32,
     delta: bool,
 }
@@ -317,6 +320,7 @@ fn sample_direction(
             wo_world: si.to_world(bs.wo),
             weight: bs.weight,
             pdf: bs.pdf,
+            bsdf_pdf: bs.pdf,
             eta: bs.eta,
             delta: bs.delta,
         });
@@ -331,6 +335,7 @@ fn sample_direction(
                 wo_world,
                 weight: bs.weight / (1.0 - alpha),
                 pdf: (1.0 - alpha) * bs.pdf,
+                bsdf_pdf: bs.pdf,
                 eta: bs.eta,
                 delta: true,
             });
@@ -345,6 +350,7 @@ fn sample_direction(
             wo_world,
             weight: f / pdf,
             pdf,
+            bsdf_pdf: p_bsdf,
             eta: bs.eta,
             delta: false,
         })
@@ -372,6 +378,7 @@ fn sample_direction(
             wo_world: gs.direction,
             weight: f / pdf,
             pdf,
+            bsdf_pdf: p_bsdf,
             eta,
             delta: false,
         })

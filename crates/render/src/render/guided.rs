@@ -18,10 +18,7 @@
 //! read-only. Training segments are handed to the guide after every pass in tile order, so a fixed seed
 //! and sample budget give the same learned model and image whatever the number of threads.
 
-use super::combine::{
-    inverse_variance_weights, pooled_image, robust_per_sample_relative_variance,
-    smoothed_luminance, weighted_image, Combine, IterationImage, ROBUST_DENOMINATOR_RADIUS,
-};
+use super::combine::{inverse_variance_weights, weighted_image, Combine, IterationImage};
 use super::{next_pass_spp, PassRunner, Progress, ProgressCounter, RenderSettings, RenderStats};
 use crate::camera::Camera;
 use crate::film::{FilmSpec, Image};
@@ -36,9 +33,9 @@ pub const MAX_TRAINING_PASS_SAMPLES: u64 = 1 << 20;
 /// A time-budget render compares guided and unguided efficiency once this many guided training
 /// iterations have rendered.
 pub const FALLBACK_GUIDED_ITERATIONS: usize = 2;
-/// Guiding is given up only if unguided path tracing is more than this many times as efficient
-/// (1 / (per-sample relative variance × time per sample)): the unguided estimate misses rare paths at
-/// a few samples per pixel, which flatters it, and the guide is still young at the check.
+/// Guiding is given up only if it looks more than this many times less efficient than path tracing
+/// (T > margin × R, see `fallback_check`): the guide is still young at the check, and R, a mean of
+/// heavy-tailed terms, is more often under- than overestimated.
 pub const FALLBACK_MARGIN: f64 = 2.0;
 
 /// How long a guided render runs and how it is split into iterations.
@@ -79,17 +76,12 @@ pub struct GuidedRenderSettings {
     /// one guided iteration.
     pub pretrained: bool,
     /// Give up guiding if it does not pay (time budget and inverse-variance combination only): after
-    /// [`FALLBACK_GUIDED_ITERATIONS`] guided training iterations, the per-sample relative variances of
-    /// the unguided first iteration and of the guided ones are weighed by their time per sample; if
-    /// unguided rendering is over [`FALLBACK_MARGIN`] times as efficient, training stops and the rest of
-    /// the budget is rendered unguided, without the guide's cost (the Cornell box: guiding costs several
-    /// times a path tracer's time per sample and gains nothing). The output then combines the unguided
-    /// iterations. The variances are robust estimates (smoothed denominator, trimmed, and for the path
-    /// tracer also its difference from the guided mean: see `fallback_check`). Not a default: measured
-    /// guided/unguided cost ratios (`--time 10`, gmm, 3–4 seeds) were 1.4–1.95 on the caustic scene and
-    /// 2.3–3.05 on the Cornell box, so the margin of 2 separates them, but narrowly; at two guided
-    /// iterations the variances say little about the trained guide and the ratio mostly measures the
-    /// guide's cost per sample.
+    /// [`FALLBACK_GUIDED_ITERATIONS`] guided training iterations, the guided segments' importance-
+    /// reweighted second moments tell whether the guide samples better than the BSDF (R, see
+    /// `fallback_check`); if guided time per sample over unguided (T) exceeds [`FALLBACK_MARGIN`] × R,
+    /// training stops and the rest of the budget is rendered unguided, without the guide's cost (the
+    /// Cornell box and veach-mis: guiding costs 3× a path tracer's time per sample and R ≤ 1). The
+    /// output then combines the unguided iterations.
     pub fallback: bool,
 }
 
@@ -110,6 +102,13 @@ pub struct IterationStats {
     pub samples_per_s: f64,
     /// Training segments recorded.
     pub segments: u64,
+    /// Guided training iterations: Σc²·p_mix/p_bsdf / Σc² over the recorded segments (c sampled with
+    /// p_mix), the estimated ratio of the second moment of sampling each segment's direction by the BSDF
+    /// alone to that of the guided mixture: above 1 where the guide finds contributions the BSDF misses.
+    pub bsdf_moment_ratio: Option<f64>,
+    /// The sums behind `bsdf_moment_ratio`: Σc² and Σc²·p_mix/p_bsdf.
+    #[serde(skip)]
+    pub moments: [f64; 2],
     /// Wall time the guide spent taking this iteration's segments (between passes).
     pub record_s: f64,
     /// The guide update that followed (training iterations only).
@@ -121,18 +120,12 @@ pub struct IterationStats {
 /// The outcome of the fallback check ([`GuidedRenderSettings::fallback`]), for the JSON record.
 #[derive(Clone, Copy, Debug, serde::Serialize)]
 pub struct FallbackCheck {
-    /// The unguided per-sample relative variance used: the larger of the halves' estimate and the
-    /// estimate from the difference to the guided mean.
-    pub unguided_variance: f64,
-    /// The unguided per-sample relative variance from the first iteration's halves alone.
-    pub unguided_halves_variance: f64,
-    /// The guided per-sample relative variance (from two guided iterations).
-    pub guided_variance: f64,
-    /// Relative per-sample variance × seconds per sample of unguided rendering.
-    pub unguided_cost: f64,
-    /// The same for guided rendering.
-    pub guided_cost: f64,
-    /// The render went on unguided.
+    /// R: the estimated second moment of BSDF-only sampling over that of the guided mixture, from the
+    /// checked iterations' segments.
+    pub bsdf_moment_ratio: f64,
+    /// T: guided time per sample over unguided time per sample.
+    pub time_ratio: f64,
+    /// The render went on unguided (T > margin × R).
     pub fell_back: bool,
 }
 
@@ -148,66 +141,37 @@ pub struct GuidedOutput {
     pub fallback: Option<FallbackCheck>,
 }
 
-/// The fallback check after the first guided iterations: the unguided first iteration's per-sample
-/// relative variance from its halves, the guided one from the last two guided iterations' difference,
-/// each times its seconds per sample. `None` if an estimate is missing.
-fn fallback_check(images: &[IterationImage], stats: &[IterationStats]) -> Option<FallbackCheck> {
-    let rendered: Vec<(&IterationImage, &IterationStats)> = images
-        .iter()
-        .zip(stats.iter().filter(|s| s.spp > 0))
-        .collect();
-    let (first, first_stats) = *rendered.first()?;
-    if first_stats.guided {
+/// The fallback check after the first guided iterations. The guided segments of the last
+/// [`FALLBACK_GUIDED_ITERATIONS`] guided iterations, each sampled with p_mix, give by importance
+/// reweighting the ratio R = Σc²·p_mix/p_bsdf / Σc² of the second moment of sampling their directions
+/// by the BSDF alone to that of the mixture (unbiased, and it sees the rare paths the guide found, which
+/// a few unguided samples per pixel do not). Guiding is efficient if its time per sample relative to
+/// the unguided first iteration's, T, is below R: the costs compared are T (guided) and R (unguided),
+/// per unit of second moment and unguided time. `None` without an unguided first iteration and the
+/// guided iterations.
+fn fallback_check(stats: &[IterationStats]) -> Option<FallbackCheck> {
+    let rendered: Vec<&IterationStats> = stats.iter().filter(|s| s.spp > 0).collect();
+    let first = *rendered.first()?;
+    if first.guided {
         return None;
     }
-    let guided: Vec<&(&IterationImage, &IterationStats)> =
-        rendered.iter().filter(|(_, s)| s.guided).collect();
-    let [(g1, s1), (g2, s2)] = guided.get(guided.len().checked_sub(2)?..)? else {
+    let guided: Vec<&IterationStats> = rendered.iter().copied().filter(|s| s.guided).collect();
+    let last = guided.get(guided.len().checked_sub(FALLBACK_GUIDED_ITERATIONS)?..)?;
+    let (m_mix, m_bsdf) = last
+        .iter()
+        .fold((0.0, 0.0), |(a, b), s| (a + s.moments[0], b + s.moments[1]));
+    if !(m_mix > 0.0 && m_bsdf > 0.0 && m_bsdf.is_finite()) {
         return None;
-    };
-    let denominator = smoothed_luminance(&pooled_image(images), ROBUST_DENOMINATOR_RADIUS);
-    let halves_var = robust_per_sample_relative_variance(
-        &first.a.0,
-        first.a.1,
-        &first.b.0,
-        first.b.1,
-        &denominator,
-    )?;
-    let guided_var = robust_per_sample_relative_variance(
-        &g1.image(),
-        g1.spp(),
-        &g2.image(),
-        g2.spp(),
-        &denominator,
-    )?;
-    // The halves alone underestimate the path tracer's variance where its contribution is rare: with
-    // few samples a caustic pixel is mostly 0 in both halves. Its difference from the (unbiased) guided
-    // mean G sees the missing light: E[(U − G)²] = σ_u²/n_u + σ_g²/n_g per pixel, so
-    // σ_u² = n_u·(D − σ_g²/n_g) with D the mean relative squared difference.
-    let (nu, ng) = (first.spp() as f64, (g1.spp() + g2.spp()) as f64);
-    let mut guided_mean = g1.image();
-    guided_mean.scale(g1.spp() as f64 / ng);
-    guided_mean.add_scaled(&g2.image(), g2.spp() as f64 / ng);
-    let mixed = robust_per_sample_relative_variance(
-        &first.image(),
-        first.spp(),
-        &guided_mean,
-        ng as u32,
-        &denominator,
-    )?;
-    let difference = mixed * (1.0 / nu + 1.0 / ng);
-    let cross_var = nu * (difference - guided_var / ng);
-    let unguided_var = halves_var.max(cross_var);
+    }
+    let ratio = m_bsdf / m_mix;
     let per_sample = |s: &IterationStats| s.render_s / s.spp.max(1) as f64;
-    let unguided_cost = unguided_var * per_sample(first_stats);
-    let guided_cost = guided_var * (s1.render_s + s2.render_s) / (s1.spp + s2.spp).max(1) as f64;
+    let guided_time: f64 = last.iter().map(|s| s.render_s).sum::<f64>()
+        / last.iter().map(|s| s.spp as f64).sum::<f64>().max(1.0);
+    let time_ratio = guided_time / per_sample(first).max(1e-12);
     Some(FallbackCheck {
-        unguided_variance: unguided_var,
-        unguided_halves_variance: halves_var,
-        guided_variance: guided_var,
-        unguided_cost,
-        guided_cost,
-        fell_back: unguided_cost * FALLBACK_MARGIN < guided_cost,
+        bsdf_moment_ratio: ratio,
+        time_ratio,
+        fell_back: ratio * FALLBACK_MARGIN < time_ratio,
     })
 }
 
@@ -315,6 +279,7 @@ pub fn render_guided(
         last_runner_threads = runner.threads();
         let iter_start = Instant::now();
         let mut segments = 0u64;
+        let mut moments = [0.0f64; 2];
         let mut record_s = 0.0;
         let mut pass_spp = 1u32;
         loop {
@@ -339,6 +304,15 @@ pub fn render_guided(
             };
             if training {
                 segments += batch.len() as u64;
+                if guided {
+                    for seg in &batch {
+                        let c2 = seg.weight as f64 * seg.weight as f64;
+                        if c2.is_finite() && seg.bsdf_pdf > 0.0 {
+                            moments[0] += c2;
+                            moments[1] += c2 * seg.pdf as f64 / seg.bsdf_pdf as f64;
+                        }
+                    }
+                }
                 if let Some(g) = guide.as_deref_mut() {
                     let t = Instant::now();
                     runner.install(|| g.record(&batch));
@@ -389,6 +363,9 @@ pub fn render_guided(
             render_s,
             samples_per_s: (pixels * spp as u64) as f64 / render_s.max(1e-9),
             segments,
+            bsdf_moment_ratio: (moments[0] > 0.0 && moments[1].is_finite())
+                .then(|| moments[1] / moments[0]),
+            moments,
             record_s,
             update,
             weight: 0.0,
@@ -402,7 +379,7 @@ pub fn render_guided(
             && fallback.is_none()
             && stats.iter().filter(|s| s.guided && s.spp > 0).count() == FALLBACK_GUIDED_ITERATIONS
         {
-            fallback = fallback_check(&images, &stats);
+            fallback = fallback_check(&stats);
         }
     }
 
@@ -479,5 +456,61 @@ pub fn render_guided(
         },
         iterations: stats,
         fallback,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn iteration(guided: bool, spp: u32, render_s: f64, moments: [f64; 2]) -> IterationStats {
+        IterationStats {
+            index: 0,
+            guided,
+            training: true,
+            spp,
+            render_s,
+            samples_per_s: 0.0,
+            segments: 0,
+            bsdf_moment_ratio: None,
+            moments,
+            record_s: 0.0,
+            update: None,
+            weight: 0.0,
+        }
+    }
+
+    #[test]
+    fn fallback_weighs_the_moment_ratio_against_the_time_ratio() {
+        // Unguided: 0.1 s per sample. Guided: 0.3 s per sample (T = 3).
+        let first = iteration(false, 10, 1.0, [0.0, 0.0]);
+        let guided = |m_bsdf: f64| {
+            vec![
+                first.clone(),
+                iteration(true, 4, 1.2, [1.0, m_bsdf / 2.0]),
+                iteration(true, 2, 0.6, [1.0, m_bsdf / 2.0]),
+            ]
+        };
+        // R = 1: the guide samples no better than the BSDF and costs 3× → fall back.
+        let c = fallback_check(&guided(2.0)).unwrap();
+        assert!((c.bsdf_moment_ratio - 1.0).abs() < 1e-12);
+        assert!((c.time_ratio - 3.0).abs() < 1e-12);
+        assert!(c.fell_back);
+        // R = 1.6: T = 3 < 2R → keep guiding.
+        assert!(!fallback_check(&guided(3.2)).unwrap().fell_back);
+        // Only the last FALLBACK_GUIDED_ITERATIONS guided iterations count; unrendered ones are skipped.
+        let mut stats = guided(2.0);
+        stats.insert(1, iteration(true, 0, 0.0, [0.0, 0.0]));
+        stats.insert(1, iteration(true, 1, 10.0, [100.0, 1e9]));
+        assert!(fallback_check(&stats).unwrap().fell_back);
+        // No unguided first iteration, too few guided ones, or no moments: no decision.
+        assert!(fallback_check(&guided(2.0)[1..]).is_none());
+        assert!(fallback_check(&guided(2.0)[..2]).is_none());
+        assert!(fallback_check(&[
+            first.clone(),
+            iteration(true, 1, 1.0, [0.0, 0.0]),
+            iteration(true, 1, 1.0, [0.0, 0.0])
+        ])
+        .is_none());
     }
 }
