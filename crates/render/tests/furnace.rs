@@ -87,3 +87,95 @@ fn white_sphere_under_constant_sky_is_invisible() {
     assert!(m.iter().all(|c| (c - 1.0).abs() < 0.003), "{m:?}");
     assert!(worst < 0.06, "worst pixel deviates by {worst}");
 }
+
+/// A camera looking down through a mask of opacity `o` (nested diffuse `top`) hung 1 cm above a diffuse
+/// plane (ρ = 0.5), lit by `light`. The mask is 400 × 400 so that the plane sees the sky only through it.
+fn masked_plane(o: f32, top: f32, light: &str, integrator: &str) -> String {
+    format!(
+        r#"<scene version="3.0.0">
+    <integrator type="{integrator}"/>
+    <sensor type="perspective">
+        <float name="fov" value="20"/>
+        <transform name="to_world"><lookat origin="0, 0, 5" target="0, 0, 0" up="0, 1, 0"/></transform>
+        <film type="hdrfilm"><integer name="width" value="16"/><integer name="height" value="16"/></film>
+    </sensor>
+    <shape type="rectangle">
+        <transform name="to_world"><scale value="2"/></transform>
+        <bsdf type="diffuse"><rgb name="reflectance" value="0.5"/></bsdf>
+    </shape>
+    <shape type="rectangle">
+        <transform name="to_world"><scale value="200"/><translate z="0.01"/></transform>
+        <bsdf type="mask">
+            <float name="opacity" value="{o}"/>
+            <bsdf type="diffuse"><rgb name="reflectance" value="{top}"/></bsdf>
+        </bsdf>
+    </shape>
+    {light}
+</scene>"#
+    )
+}
+
+const SKY: &str = r#"<emitter type="constant"><rgb name="radiance" value="1"/></emitter>"#;
+
+#[test]
+fn mask_over_plane_under_sky_matches_closed_form() {
+    // Camera ray: with probability o the mask's top (ρ_top · 1), else the plane, which sees the sky
+    // through the mask (irradiance (1 − o)·π) and the mask's one-sided black underside:
+    // L = o·ρ_top + (1 − o)·0.5·(1 − o). Both the shadow rays (through the mask, attenuated) and the
+    // BSDF-sampled rays (passing through stochastically) carry the sky, MIS-weighted from the plane.
+    for integrator in ["path", "guided"] {
+        for (o, top) in [
+            (0.5f32, 0.0f32),
+            (0.5, 1.0),
+            (0.2, 0.0),
+            (1.0, 0.0),
+            (0.0, 0.0),
+        ] {
+            let expected = (o * top + (1.0 - o) * 0.5 * (1.0 - o)) as f64;
+            let m = mean_of(&masked_plane(o, top, SKY, integrator), 128);
+            for c in m {
+                assert!(
+                    (c - expected).abs() < 0.004 + 0.01 * expected,
+                    "{integrator}, opacity {o}, top {top}: mean {c}, expected {expected}"
+                );
+            }
+        }
+    }
+}
+
+#[test]
+fn mask_attenuates_shadow_rays_from_a_point_light() {
+    // A point light above the mask reaches the plane only by next-event estimation, through the mask:
+    // with opacity 0.5 and a black top, the camera sees (1 − o)² = 1/4 of the unmasked image.
+    let light = r#"<emitter type="point"><point name="position" x="0" y="0" z="1"/><rgb name="intensity" value="1"/></emitter>"#;
+    let open = mean_of(&masked_plane(0.0, 0.0, light, "path"), 64);
+    let masked = mean_of(&masked_plane(0.5, 0.0, light, "path"), 64);
+    for (a, b) in open.iter().zip(masked) {
+        assert!(*a > 0.01, "{a}");
+        assert!((b / a - 0.25).abs() < 0.01, "ratio {}", b / a);
+    }
+}
+
+#[test]
+fn difftrans_sphere_under_constant_sky_is_invisible() {
+    // A lossless diffuse transmitter (T = 1) closed into a sphere under a uniform sky of radiance 1:
+    // every ray leaves with radiance 1, however often it crosses the shell.
+    let xml = r#"<scene version="3.0.0">
+    <integrator type="path"/>
+    <sensor type="perspective">
+        <float name="fov" value="30"/>
+        <transform name="to_world"><lookat origin="0, 0, 5" target="0, 0, 0" up="0, 1, 0"/></transform>
+        <film type="hdrfilm"><integer name="width" value="16"/><integer name="height" value="16"/></film>
+    </sensor>
+    <shape type="sphere"><bsdf type="difftrans"><rgb name="transmittance" value="1"/></bsdf></shape>
+    <emitter type="constant"><rgb name="radiance" value="1"/></emitter>
+</scene>"#;
+    let m = mean_of(xml, 128);
+    assert!(m.iter().all(|c| (c - 1.0).abs() < 0.005), "{m:?}");
+    // T = 0.5 loses energy at every crossing: the shell is darker than the sky around it.
+    let half = mean_of(
+        &xml.replace(r#"value="1"/></bsdf>"#, r#"value="0.5"/></bsdf>"#),
+        32,
+    );
+    assert!(half.iter().all(|c| *c > 0.3 && *c < 0.95), "{half:?}");
+}
