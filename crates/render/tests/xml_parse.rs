@@ -727,6 +727,7 @@ fn version_06_bsdf_parameters_map_to_mitsuba3() {
         r#"<bsdf type="difftrans"><spectrum name="transmittance" value="0.35"/></bsdf>"#,
         r#"<bsdf type="mask"><spectrum name="opacity" value="0.75"/><bsdf type="diffuse"/></bsdf>"#,
         r#"<bsdf type="conductor"/>"#,
+        r#"<bsdf type="difftrans"><spectrum name="diffuseTransmittance" value="0.45"/></bsdf>"#,
     ];
     let shapes: String = bsdfs
         .iter()
@@ -796,6 +797,10 @@ fn version_06_bsdf_parameters_map_to_mitsuba3() {
         panic!("{:?}", b[10])
     };
     assert!(near(grey(&c.eta), 0.0) && near(grey(&c.k), 1.0));
+    let Bsdf::DiffuseTransmitter(t) = &b[11] else {
+        panic!("{:?}", b[11])
+    };
+    assert!(near(grey(&t.transmittance), 0.45));
     assert_eq!(loaded.warnings.len(), 1, "{:?}", loaded.warnings);
     assert!(loaded.warnings[0].contains("Cu"), "{:?}", loaded.warnings);
 }

@@ -91,7 +91,12 @@ pub fn bsdf_from_desc(obj: &ObjectDesc) -> SceneResult<Bsdf> {
         "blendbsdf" => blend(obj),
         "mask" => mask(obj),
         "difftrans" => Ok(Bsdf::DiffuseTransmitter(super::DiffuseTransmitter {
-            transmittance: texture(obj, &["transmittance"], Rgb::splat(0.5))?,
+            // Mitsuba 0.6 also reads `diffuseTransmittance`.
+            transmittance: texture(
+                obj,
+                &["transmittance", "diffuse_transmittance"],
+                Rgb::splat(0.5),
+            )?,
         })),
         "bumpmap" => Err(obj.error(
             "BSDF 'bumpmap' is not supported (height-field bump mapping); convert the height map to a \
