@@ -240,6 +240,7 @@ fn diffuse_plane_under_an_envmap_matches_its_irradiance() {
     let out = render_loaded(&s, &settings(512, 5, 0));
     assert!(all_finite(&out.image));
     let m = out.image.mean_rgb();
+    eprintln!("rendered {m:?}, integrated {expected:?}");
     for c in 0..3 {
         assert!(
             (m[c] - expected[c]).abs() < 0.01 * expected[c],
