@@ -2,8 +2,9 @@
 //! part), consistency of the sample weight with eval/pdf, white-furnace energy bounds, and reciprocity.
 
 use focal_render::bsdf::{
-    Blend, Bsdf, BsdfContext, Conductor, Dielectric, Diffuse, Microfacet, MicrofacetKind,
-    NormalMap, Plastic, RoughConductor, RoughDielectric, RoughPlastic, ThinDielectric, TwoSided,
+    Blend, Bsdf, BsdfContext, Conductor, Dielectric, Diffuse, DiffuseTransmitter, Mask, Microfacet,
+    MicrofacetKind, NormalMap, Plastic, RoughConductor, RoughDielectric, RoughPlastic,
+    ThinDielectric, TwoSided,
 };
 use focal_render::color::Rgb;
 use focal_render::texture::Texture;
@@ -273,6 +274,52 @@ fn cases() -> Vec<Case> {
         &front,
         Energy::AtMostOne,
     );
+    // Masks: the null event is a delta transmission with weight (1 − o)/P, so a white nested model
+    // stays lossless; a colour opacity exercises the per-channel weights.
+    let mask = |nested: Bsdf, o: Rgb| {
+        Bsdf::Mask(Box::new(Mask {
+            nested,
+            opacity: Texture::Constant(o),
+        }))
+    };
+    add(
+        "mask diffuse o=0.5".into(),
+        &mask(diffuse(1.0), Rgb::splat(0.5)),
+        &front,
+        Energy::One,
+    );
+    add(
+        "mask diffuse o=(0.2,0.5,0.9)".into(),
+        &mask(diffuse(1.0), Rgb::new(0.2, 0.5, 0.9)),
+        &front,
+        Energy::One,
+    );
+    add(
+        "mask roughconductor o=0.7".into(),
+        &mask(
+            rough_conductor(MicrofacetKind::Ggx, 0.3, 0.3, true),
+            Rgb::splat(0.7),
+        ),
+        &front,
+        Energy::AtMostOne,
+    );
+    add(
+        "mask twosided plastic o=0.3".into(),
+        &mask(
+            ts(plastic(1.0, false), plastic(1.0, false)),
+            Rgb::splat(0.3),
+        ),
+        &below,
+        Energy::AtMostOne,
+    );
+    add(
+        "difftrans".into(),
+        &Bsdf::DiffuseTransmitter(DiffuseTransmitter {
+            transmittance: white(),
+        }),
+        &both,
+        Energy::One,
+    );
     out
 }
 
@@ -384,6 +431,53 @@ fn chi2_dielectrics() {
 #[test]
 fn chi2_plastics_and_twosided() {
     check_cases(&["plastic", "roughplastic", "twosided"]);
+}
+
+#[test]
+fn chi2_mask_and_difftrans() {
+    check_cases(&["mask", "difftrans"]);
+}
+
+/// A mask's null event continues straight on with weight (1 − o)/mean(1 − o), chosen with probability
+/// mean(1 − o); difftrans only transmits, from either side.
+#[test]
+fn mask_null_event_and_difftrans_sides() {
+    let ctx = BsdfContext::default();
+    let o = Rgb::new(0.2, 0.5, 0.9);
+    let m = Bsdf::Mask(Box::new(Mask {
+        nested: diffuse(0.8),
+        opacity: Texture::Constant(o),
+    }));
+    let wi = dir(40.0, 60.0);
+    let p_null = 1.0 - (0.2 + 0.5 + 0.9) / 3.0;
+    let s = m.sample(&ctx, wi, 0.999, Vec2::new(0.3, 0.3)).unwrap();
+    assert!(s.delta && (s.wo + wi).length() < 1e-6, "{s:?}");
+    assert!((s.pdf - p_null).abs() < 1e-6);
+    assert!(((s.weight - (Rgb::ONE - o) / p_null).abs()).max_element() < 1e-5);
+    assert_eq!(m.pass_through(&ctx), Some(Rgb::ONE - o));
+    assert!(matches!(m.opaque_part(), Bsdf::Diffuse(_)));
+    assert!(diffuse(0.5).pass_through(&ctx).is_none());
+    let wo = dir(30.0, 200.0);
+    assert!(
+        ((m.eval(&ctx, wi, wo) - diffuse(0.8).eval(&ctx, wi, wo) * o).abs()).max_element() < 1e-7
+    );
+
+    let t = Bsdf::DiffuseTransmitter(DiffuseTransmitter {
+        transmittance: Texture::constant(0.6),
+    });
+    let (up, down) = (dir(20.0, 0.0), dir(160.0, 90.0));
+    assert_eq!(t.eval(&ctx, up, dir(40.0, 0.0)), Rgb::ZERO);
+    let f = t.eval(&ctx, up, down);
+    assert!((f.x - 0.6 / std::f32::consts::PI * down.z.abs()).abs() < 1e-6);
+    assert_eq!(
+        t.eval(&ctx, down, up),
+        t.eval(&ctx, up, down) * up.z.abs() / down.z.abs()
+    );
+    for wi in [up, down] {
+        let s = t.sample(&ctx, wi, 0.5, Vec2::new(0.7, 0.2)).unwrap();
+        assert!(s.wo.z * wi.z < 0.0 && !s.delta && (s.weight.x - 0.6).abs() < 1e-6);
+    }
+    assert!(t.has_smooth() && t.has_transmission() && !t.has_delta());
 }
 
 /// f(wi, wo) = f(wo, wi) for the reflection lobes (eval includes |cos θo|, so compare eval/|cos θo|).

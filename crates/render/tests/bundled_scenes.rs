@@ -49,6 +49,11 @@ fn lens_focus_renders() {
 }
 
 #[test]
+fn glass_caustic_renders() {
+    renders("glass_caustic.xml");
+}
+
+#[test]
 fn every_bundled_scene_is_tested() {
     let mut names: Vec<String> = std::fs::read_dir(bundled(""))
         .unwrap()
@@ -61,6 +66,7 @@ fn every_bundled_scene_is_tested() {
         [
             "cbox.xml",
             "door_gap.xml",
+            "glass_caustic.xml",
             "lens_focus.xml",
             "obscura.xml",
             "shaded_lights.xml"

@@ -36,7 +36,8 @@ const XML: &str = r#"<scene version="0.6.0">
     <transform name="toWorld"><scale x="2" y="2"/><rotate x="1" angle="-90"/></transform></shape>
   <shape type="ply"><string name="filename" value="quad.ply"/><ref id="plastic"/></shape>
   <shape type="serialized"><string name="filename" value="mesh.serialized"/><integer name="shapeIndex" value="1"/>
-    <boolean name="faceNormals" value="true"/></shape>
+    <boolean name="faceNormals" value="true"/>
+    <bsdf type="mask"><spectrum name="opacity" value="0.5"/><bsdf type="difftrans"/></bsdf></shape>
   <shape type="cylinder"><float name="radius" value="0.3"/><boolean name="flipNormals" value="true"/>
     <bsdf type="dielectric"><string name="intIOR" value="bk7"/></bsdf></shape>
   <shape type="sphere"><point name="center" x="0" y="2" z="0"/><float name="radius" value="0.2"/>

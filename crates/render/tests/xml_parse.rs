@@ -702,3 +702,105 @@ fn search_paths_resolve_filenames() {
         .unwrap();
     assert_eq!(absent, dir.join("absent.obj"));
 }
+
+/// Every Mitsuba 0.6 BSDF parameter name we map reaches the Mitsuba 3 parameter: one shape per BSDF, in
+/// order, each with the 0.6 spelling of its parameters.
+#[test]
+fn version_06_bsdf_parameters_map_to_mitsuba3() {
+    use focal_render::bsdf::{Bsdf, MicrofacetKind};
+    use focal_render::scene::{build_scene, BuildOptions};
+    let bsdfs = [
+        r#"<bsdf type="diffuse"><spectrum name="diffuseReflectance" value="0.3"/></bsdf>"#,
+        r#"<bsdf type="dielectric"><float name="intIOR" value="1.6"/><float name="extIOR" value="1.2"/>
+            <spectrum name="specularReflectance" value="0.7"/><spectrum name="specularTransmittance" value="0.6"/></bsdf>"#,
+        r#"<bsdf type="thindielectric"><string name="intIOR" value="water"/><string name="extIOR" value="vacuum"/></bsdf>"#,
+        r#"<bsdf type="roughdielectric"><string name="distribution" value="ggx"/>
+            <float name="alphaU" value="0.2"/><float name="alphaV" value="0.3"/><boolean name="sampleVisible" value="false"/></bsdf>"#,
+        r#"<bsdf type="conductor"><spectrum name="eta" value="0.5"/><spectrum name="k" value="2"/>
+            <float name="extEta" value="1.25"/><spectrum name="specularReflectance" value="0.8"/></bsdf>"#,
+        r#"<bsdf type="roughconductor"><string name="material" value="Au"/><float name="alpha" value="0.15"/></bsdf>"#,
+        r#"<bsdf type="plastic"><spectrum name="diffuseReflectance" value="0.2"/>
+            <spectrum name="specularReflectance" value="0.9"/><float name="intIOR" value="1.5"/><float name="extIOR" value="1"/>
+            <boolean name="nonlinear" value="true"/></bsdf>"#,
+        r#"<bsdf type="roughplastic"><float name="alpha" value="0.25"/><boolean name="nonlinear" value="true"/>
+            <spectrum name="diffuseReflectance" value="0.4"/></bsdf>"#,
+        r#"<bsdf type="difftrans"><spectrum name="transmittance" value="0.35"/></bsdf>"#,
+        r#"<bsdf type="mask"><spectrum name="opacity" value="0.75"/><bsdf type="diffuse"/></bsdf>"#,
+        r#"<bsdf type="conductor"/>"#,
+        r#"<bsdf type="difftrans"><spectrum name="diffuseTransmittance" value="0.45"/></bsdf>"#,
+    ];
+    let shapes: String = bsdfs
+        .iter()
+        .map(|b| format!("<shape type=\"sphere\">{b}</shape>\n"))
+        .collect();
+    let xml = format!(
+        r#"<scene version="0.6.0">
+    <sensor type="perspective"><film type="hdrfilm"><integer name="width" value="8"/><integer name="height" value="8"/></film></sensor>
+    {shapes}</scene>"#
+    );
+    let desc = parse_scene_str(&xml, Path::new(FILE), &[]).unwrap_or_else(|e| panic!("{e}"));
+    let loaded = build_scene(&desc, &BuildOptions::default()).unwrap_or_else(|e| panic!("{e}"));
+    let b = &loaded.scene.bsdfs;
+    assert_eq!(b.len(), bsdfs.len());
+    let uv = glam::Vec2::ZERO;
+    let grey = |t: &focal_render::texture::Texture| t.eval(uv).x;
+    let near = |a: f32, b: f32| (a - b).abs() < 1e-6;
+
+    let Bsdf::Diffuse(d) = &b[0] else {
+        panic!("{:?}", b[0])
+    };
+    assert!(near(grey(&d.reflectance), 0.3));
+    let Bsdf::Dielectric(d) = &b[1] else {
+        panic!("{:?}", b[1])
+    };
+    assert!(near(d.eta, 1.6 / 1.2));
+    assert!(near(grey(&d.specular_reflectance), 0.7) && near(grey(&d.specular_transmittance), 0.6));
+    let Bsdf::ThinDielectric(d) = &b[2] else {
+        panic!("{:?}", b[2])
+    };
+    assert!(near(d.eta, 1.333));
+    let Bsdf::RoughDielectric(d) = &b[3] else {
+        panic!("{:?}", b[3])
+    };
+    assert_eq!(d.distribution.kind, MicrofacetKind::Ggx);
+    assert_eq!((d.distribution.alpha_u, d.distribution.alpha_v), (0.2, 0.3));
+    assert!(!d.distribution.sample_visible);
+    let Bsdf::Conductor(c) = &b[4] else {
+        panic!("{:?}", b[4])
+    };
+    assert!(near(grey(&c.eta), 0.4) && near(grey(&c.k), 1.6));
+    assert!(near(grey(&c.specular_reflectance), 0.8));
+    let Bsdf::RoughConductor(c) = &b[5] else {
+        panic!("{:?}", b[5])
+    };
+    assert!(near(c.eta.eval(uv).x, 0.143036) && near(c.k.eval(uv).z, 1.603359));
+    assert_eq!(c.distribution.alpha_u, 0.15);
+    let Bsdf::Plastic(p) = &b[6] else {
+        panic!("{:?}", b[6])
+    };
+    assert!(near(p.eta, 1.5) && p.nonlinear);
+    assert!(near(grey(&p.diffuse_reflectance), 0.2));
+    assert!(near(grey(p.specular_reflectance.as_ref().unwrap()), 0.9));
+    let Bsdf::RoughPlastic(p) = &b[7] else {
+        panic!("{:?}", b[7])
+    };
+    assert!(p.nonlinear && p.distribution.alpha_u == 0.25);
+    assert!(near(grey(&p.diffuse_reflectance), 0.4));
+    let Bsdf::DiffuseTransmitter(t) = &b[8] else {
+        panic!("{:?}", b[8])
+    };
+    assert!(near(grey(&t.transmittance), 0.35));
+    let ctx = focal_render::bsdf::BsdfContext::default();
+    assert_eq!(b[9].pass_through(&ctx), Some(Vec3::splat(0.25)));
+    // A 0.6 conductor without a material: Mitsuba 3's mirror, with a warning naming 0.6's copper.
+    let Bsdf::Conductor(c) = &b[10] else {
+        panic!("{:?}", b[10])
+    };
+    assert!(near(grey(&c.eta), 0.0) && near(grey(&c.k), 1.0));
+    let Bsdf::DiffuseTransmitter(t) = &b[11] else {
+        panic!("{:?}", b[11])
+    };
+    assert!(near(grey(&t.transmittance), 0.45));
+    assert_eq!(loaded.warnings.len(), 1, "{:?}", loaded.warnings);
+    assert!(loaded.warnings[0].contains("Cu"), "{:?}", loaded.warnings);
+}

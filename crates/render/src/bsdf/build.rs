@@ -25,6 +25,8 @@ const KNOWN_PLUGINS: &[&str] = &[
     "twosided",
     "normalmap",
     "blendbsdf",
+    "mask",
+    "difftrans",
 ];
 
 /// Builds the BSDF described by a `<bsdf>` element.
@@ -87,6 +89,15 @@ pub fn bsdf_from_desc(obj: &ObjectDesc) -> SceneResult<Bsdf> {
         "twosided" => twosided(obj),
         "normalmap" => normalmap(obj),
         "blendbsdf" => blend(obj),
+        "mask" => mask(obj),
+        "difftrans" => Ok(Bsdf::DiffuseTransmitter(super::DiffuseTransmitter {
+            // Mitsuba 0.6 also reads `diffuseTransmittance`.
+            transmittance: texture(
+                obj,
+                &["transmittance", "diffuse_transmittance"],
+                Rgb::splat(0.5),
+            )?,
+        })),
         "bumpmap" => Err(obj.error(
             "BSDF 'bumpmap' is not supported (height-field bump mapping); convert the height map to a \
              tangent-space normal map and use 'normalmap'",
@@ -378,6 +389,31 @@ fn blend(obj: &ObjectDesc) -> SceneResult<Bsdf> {
     Ok(Bsdf::Blend(Box::new(super::Blend {
         bsdfs: Box::new([bsdf_from_desc(&b0.object)?, bsdf_from_desc(&b1.object)?]),
         weight,
+    })))
+}
+
+/// `mask`: one nested BSDF and `opacity` (constant or texture, default 0.5, values in [0, 1]).
+fn mask(obj: &ObjectDesc) -> SceneResult<Bsdf> {
+    let nested: Vec<_> = obj.children_of(&ObjectClass::Bsdf).collect();
+    if nested.len() != 1 {
+        return Err(obj.error(format!(
+            "'mask' needs exactly one nested BSDF, found {}",
+            nested.len()
+        )));
+    }
+    let opacity = texture(obj, &["opacity"], Rgb::splat(0.5))?;
+    if let Texture::Constant(o) = &opacity {
+        if o.min_element() < 0.0 || o.max_element() > 1.0 {
+            let loc = obj.prop("opacity").map_or(&obj.loc, |p| &p.loc);
+            return Err(SceneError::at(
+                loc,
+                format!("'mask' opacity must lie in [0, 1], got {o}"),
+            ));
+        }
+    }
+    Ok(Bsdf::Mask(Box::new(super::Mask {
+        nested: bsdf_from_desc(&nested[0].object)?,
+        opacity,
     })))
 }
 
@@ -707,6 +743,43 @@ mod tests {
             d.reflectance.eval(glam::Vec2::new(0.6, 0.1)),
             Rgb::splat(0.9)
         );
+    }
+
+    #[test]
+    fn mask_and_difftrans_are_built() {
+        let ctx = BsdfContext::default();
+        let m = with_children(
+            bsdf("mask", &[("opacity", float(0.25))]),
+            vec![(None, bsdf("diffuse", &[]))],
+        );
+        let b = bsdf_from_desc(&m).unwrap();
+        assert_eq!(b.pass_through(&ctx), Some(Rgb::splat(0.75)));
+        let m = with_children(bsdf("mask", &[]), vec![(None, bsdf("diffuse", &[]))]);
+        assert_eq!(
+            bsdf_from_desc(&m).unwrap().pass_through(&ctx),
+            Some(Rgb::splat(0.5))
+        );
+        let bad = with_children(
+            bsdf("mask", &[("opacity", float(1.5))]),
+            vec![(None, bsdf("diffuse", &[]))],
+        );
+        let (line, msg) = err_line(bsdf_from_desc(&bad));
+        assert_eq!(line, 2);
+        assert!(msg.contains("opacity"), "{msg}");
+        let (line, msg) = err_line(bsdf_from_desc(&bsdf("mask", &[])));
+        assert_eq!(line, 1);
+        assert!(msg.contains("nested"), "{msg}");
+
+        let Bsdf::DiffuseTransmitter(t) = bsdf_from_desc(&bsdf("difftrans", &[])).unwrap() else {
+            panic!()
+        };
+        assert_eq!(t.transmittance.eval(Default::default()), Rgb::splat(0.5));
+        let Bsdf::DiffuseTransmitter(t) =
+            bsdf_from_desc(&bsdf("difftrans", &[("transmittance", float(0.8))])).unwrap()
+        else {
+            panic!()
+        };
+        assert_eq!(t.transmittance.eval(Default::default()), Rgb::splat(0.8));
     }
 
     #[test]

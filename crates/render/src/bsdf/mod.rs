@@ -13,9 +13,11 @@ mod blend;
 pub mod build;
 mod conductor;
 mod dielectric;
+mod difftrans;
 mod diffuse;
 pub mod fresnel;
 pub mod ior;
+mod mask;
 pub mod microfacet;
 mod normalmap;
 mod plastic;
@@ -29,7 +31,9 @@ pub use blend::Blend;
 pub use build::bsdf_from_desc;
 pub use conductor::Conductor;
 pub use dielectric::Dielectric;
+pub use difftrans::DiffuseTransmitter;
 pub use diffuse::Diffuse;
+pub use mask::Mask;
 pub use microfacet::{Microfacet, MicrofacetKind};
 pub use normalmap::NormalMap;
 pub use plastic::Plastic;
@@ -91,6 +95,10 @@ pub enum Bsdf {
     NormalMap(Box<NormalMap>),
     /// Linear blend of two BSDFs (`blendbsdf`).
     Blend(Box<Blend>),
+    /// Opacity mask with a pass-through event (`mask`).
+    Mask(Box<Mask>),
+    /// Ideal diffuse transmission (`difftrans`).
+    DiffuseTransmitter(DiffuseTransmitter),
 }
 
 /// True for a strictly positive number (false for NaN), for rejecting degenerate samples.
@@ -118,6 +126,8 @@ impl Bsdf {
             Bsdf::TwoSided(b) => b.eval(ctx, wi, wo),
             Bsdf::NormalMap(b) => b.eval(ctx, wi, wo),
             Bsdf::Blend(b) => b.eval(ctx, wi, wo),
+            Bsdf::Mask(b) => b.eval(ctx, wi, wo),
+            Bsdf::DiffuseTransmitter(b) => b.eval(ctx, wi, wo),
             Bsdf::Conductor(_) | Bsdf::Dielectric(_) | Bsdf::ThinDielectric(_) => Rgb::ZERO,
         }
     }
@@ -134,6 +144,8 @@ impl Bsdf {
             Bsdf::TwoSided(b) => b.pdf(ctx, wi, wo),
             Bsdf::NormalMap(b) => b.pdf(ctx, wi, wo),
             Bsdf::Blend(b) => b.pdf(ctx, wi, wo),
+            Bsdf::Mask(b) => b.pdf(ctx, wi, wo),
+            Bsdf::DiffuseTransmitter(b) => b.pdf(ctx, wi, wo),
             Bsdf::Conductor(_) | Bsdf::Dielectric(_) | Bsdf::ThinDielectric(_) => 0.0,
         }
     }
@@ -154,6 +166,8 @@ impl Bsdf {
             Bsdf::TwoSided(b) => b.sample(ctx, wi, u1, u2),
             Bsdf::NormalMap(b) => b.sample(ctx, wi, u1, u2),
             Bsdf::Blend(b) => b.sample(ctx, wi, u1, u2),
+            Bsdf::Mask(b) => b.sample(ctx, wi, u1, u2),
+            Bsdf::DiffuseTransmitter(b) => b.sample(ctx, wi, u1, u2),
         }
     }
 
@@ -162,11 +176,12 @@ impl Bsdf {
     pub fn has_smooth(&self) -> bool {
         match self {
             Bsdf::Diffuse(_) | Bsdf::RoughConductor(_) | Bsdf::RoughDielectric(_) => true,
-            Bsdf::Plastic(_) | Bsdf::RoughPlastic(_) => true,
+            Bsdf::Plastic(_) | Bsdf::RoughPlastic(_) | Bsdf::DiffuseTransmitter(_) => true,
             Bsdf::Conductor(_) | Bsdf::Dielectric(_) | Bsdf::ThinDielectric(_) => false,
             Bsdf::TwoSided(b) => b.sides.iter().any(Bsdf::has_smooth),
             Bsdf::NormalMap(b) => b.nested.has_smooth(),
             Bsdf::Blend(b) => b.bsdfs.iter().any(Bsdf::has_smooth),
+            Bsdf::Mask(b) => b.nested.has_smooth(),
         }
     }
 
@@ -177,11 +192,13 @@ impl Bsdf {
             Bsdf::Conductor(_)
             | Bsdf::Dielectric(_)
             | Bsdf::ThinDielectric(_)
-            | Bsdf::Plastic(_) => true,
+            | Bsdf::Plastic(_)
+            | Bsdf::Mask(_) => true,
             Bsdf::Diffuse(_)
             | Bsdf::RoughConductor(_)
             | Bsdf::RoughDielectric(_)
-            | Bsdf::RoughPlastic(_) => false,
+            | Bsdf::RoughPlastic(_)
+            | Bsdf::DiffuseTransmitter(_) => false,
             Bsdf::TwoSided(b) => b.sides.iter().any(Bsdf::has_delta),
             Bsdf::NormalMap(b) => b.nested.has_delta(),
             Bsdf::Blend(b) => b.bsdfs.iter().any(Bsdf::has_delta),
@@ -192,6 +209,8 @@ impl Bsdf {
     pub fn has_transmission(&self) -> bool {
         match self {
             Bsdf::Dielectric(_) | Bsdf::RoughDielectric(_) | Bsdf::ThinDielectric(_) => true,
+            // The null event of a mask passes light to the other side.
+            Bsdf::Mask(_) | Bsdf::DiffuseTransmitter(_) => true,
             Bsdf::TwoSided(b) => b.sides.iter().any(Bsdf::has_transmission),
             Bsdf::NormalMap(b) => b.nested.has_transmission(),
             Bsdf::Blend(b) => b.bsdfs.iter().any(Bsdf::has_transmission),
@@ -203,7 +222,7 @@ impl Bsdf {
     /// microfacet lobes (Mitsuba 0.6 `getRoughness`), used by focal guiding to spot glossy vertices.
     pub fn min_roughness(&self) -> f32 {
         match self {
-            Bsdf::Diffuse(_) => f32::INFINITY,
+            Bsdf::Diffuse(_) | Bsdf::DiffuseTransmitter(_) => f32::INFINITY,
             Bsdf::Conductor(_)
             | Bsdf::Dielectric(_)
             | Bsdf::ThinDielectric(_)
@@ -214,6 +233,30 @@ impl Bsdf {
             Bsdf::TwoSided(b) => b.sides[0].min_roughness().min(b.sides[1].min_roughness()),
             Bsdf::NormalMap(b) => b.nested.min_roughness(),
             Bsdf::Blend(b) => b.bsdfs[0].min_roughness().min(b.bsdfs[1].min_roughness()),
+            // The pass-through is no scattering vertex (see [`Bsdf::pass_through`]).
+            Bsdf::Mask(b) => b.nested.min_roughness(),
+        }
+    }
+
+    /// The transmittance 1 − opacity of a pass-through (null) event at `ctx` if this BSDF is a `mask`,
+    /// else `None`. Integrators decide a pass-through before treating the hit as a vertex: with
+    /// probability mean(1 − o) the ray continues unchanged with weight (1 − o)/mean(1 − o); otherwise
+    /// the vertex scatters with [`Bsdf::opaque_part`] and weight o/mean(o). Shadow rays multiply by it.
+    #[inline]
+    pub fn pass_through(&self, ctx: &BsdfContext) -> Option<Rgb> {
+        match self {
+            Bsdf::Mask(m) => Some(Rgb::ONE - m.opacity(ctx)),
+            _ => None,
+        }
+    }
+
+    /// The BSDF that scatters at a vertex once a pass-through has been ruled out: a mask's nested
+    /// BSDF, or `self`.
+    #[inline]
+    pub fn opaque_part(&self) -> &Bsdf {
+        match self {
+            Bsdf::Mask(m) => &m.nested,
+            b => b,
         }
     }
 
@@ -250,6 +293,8 @@ impl Bsdf {
                 let w = b.weight.eval_1(ctx.uv).clamp(0.0, 1.0);
                 b.bsdfs[0].albedo(ctx) * (1.0 - w) + b.bsdfs[1].albedo(ctx) * w
             }
+            Bsdf::Mask(b) => b.nested.albedo(ctx) * b.opacity(ctx),
+            Bsdf::DiffuseTransmitter(b) => b.transmittance.eval(ctx.uv),
         };
         a.clamp(Rgb::ZERO, Rgb::ONE)
     }

@@ -3,12 +3,15 @@
 //! next-event estimation is MIS-weighted against the mixture pdf, and the path's segments are recorded as
 //! training data for the next iteration.
 
-use super::{next_event_estimate, power_heuristic, FirstHitAovs, Integrator, PathSettings};
+use super::{
+    next_event_estimate, power_heuristic, resolve_pass_through, FirstHitAovs, Integrator,
+    PathSettings,
+};
 use crate::bsdf::{Bsdf, BsdfContext};
 use crate::color::Rgb;
 use crate::ray::{offset_ray_origin, Ray};
 use crate::sampler::Sampler;
-use crate::scene::Scene;
+use crate::scene::{Scene, MAX_PASS_THROUGH};
 use focal_guiding::{GuideVertex, GuidingDistribution, TrainingSegment};
 
 /// Roughness below which a path vertex counts as glossy (Ruppert et al. 2020, as the focal-guiding code):
@@ -140,6 +143,10 @@ impl Integrator for GuidedPathIntegrator<'_> {
         let mut prev_delta = true;
         let mut pending: Vec<PendingSegment> = Vec::new();
         let mut vertex = GuideVertex::default();
+        // Consecutive pass-throughs (masks) since the last vertex, and the distance they covered (a
+        // training segment runs from vertex to vertex, through any masks).
+        let mut passes: u32 = 0;
+        let mut travelled = 0.0f32;
         let roulette = match (self.settings.roulette, self.guide) {
             (Roulette::Albedo, None) => Roulette::Throughput,
             (r, _) => r,
@@ -169,14 +176,6 @@ impl Integrator for GuidedPathIntegrator<'_> {
                 }
                 break;
             };
-            let bsdf = &scene.bsdfs[scene.shapes[si.shape as usize].bsdf as usize];
-            if let Some(last) = pending.last_mut() {
-                if last.segment.distance < 0.0 {
-                    last.segment.distance = si.t;
-                    last.segment.glossy_endpoint = bsdf.min_roughness() < GLOSSY_ROUGHNESS;
-                }
-            }
-
             if let Some(e) = scene.shapes[si.shape as usize].emitter {
                 let le = scene.emitters[e as usize].eval_area(si.to_local(-ray.d).z);
                 if visible && le != Rgb::ZERO {
@@ -189,11 +188,35 @@ impl Integrator for GuidedPathIntegrator<'_> {
                 }
             }
             let ctx = BsdfContext { uv: si.uv };
+            // A pass-through is no vertex: no guiding, no training vertex, no depth; the MIS state of
+            // the last vertex stays.
+            let Some(bsdf) = resolve_pass_through(
+                &scene.bsdfs[scene.shapes[si.shape as usize].bsdf as usize],
+                &ctx,
+                sampler,
+                &mut throughput,
+            ) else {
+                passes += 1;
+                travelled += si.t;
+                if passes >= MAX_PASS_THROUGH || !(throughput.max_element() > 0.0) {
+                    break;
+                }
+                ray = Ray::new(offset_ray_origin(si.p, si.ng, ray.d), ray.d);
+                continue;
+            };
+            passes = 0;
+            if let Some(last) = pending.last_mut() {
+                if last.segment.distance < 0.0 {
+                    last.segment.distance = travelled + si.t;
+                    last.segment.glossy_endpoint = bsdf.min_roughness() < GLOSSY_ROUGHNESS;
+                }
+            }
             if depth == 0 {
                 aovs.albedo = bsdf.albedo(&ctx);
                 aovs.normal = si.sh_frame.n;
-                aovs.depth = si.t;
+                aovs.depth = travelled + si.t;
             }
+            travelled = 0.0;
             if depth.saturating_add(1) >= s.max_depth {
                 break;
             }

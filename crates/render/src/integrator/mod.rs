@@ -87,7 +87,8 @@ pub(crate) fn next_event_estimate(
     } else {
         f32::INFINITY
     };
-    if scene.occluded(&Ray::segment(o, es.wi, t_max)) {
+    let transmittance = scene.transmittance(&Ray::segment(o, es.wi, t_max));
+    if transmittance == Rgb::ZERO {
         return Rgb::ZERO;
     }
     let mis = if es.delta {
@@ -95,5 +96,29 @@ pub(crate) fn next_event_estimate(
     } else {
         power_heuristic(es.pdf, direction_pdf(wo, es.wi))
     };
-    f * es.weight * mis
+    f * transmittance * es.weight * mis
+}
+
+/// The stochastic pass-through decision at a hit (see [`Bsdf::pass_through`]): `None` if the ray passes
+/// straight through a `mask` (the throughput is updated and the hit is no vertex), else the BSDF that
+/// scatters there (the mask's opaque part, with the throughput reweighted by o/mean(o)). Draws one
+/// sampler dimension at masks only.
+#[inline]
+pub(crate) fn resolve_pass_through<'a>(
+    bsdf: &'a Bsdf,
+    ctx: &BsdfContext,
+    sampler: &mut Sampler,
+    throughput: &mut Rgb,
+) -> Option<&'a Bsdf> {
+    let Some(t) = bsdf.pass_through(ctx) else {
+        return Some(bsdf);
+    };
+    let p = t.element_sum() / 3.0;
+    if sampler.next_1d() < p {
+        *throughput *= t / p;
+        None
+    } else {
+        *throughput *= (Rgb::ONE - t) / (1.0 - p);
+        Some(bsdf.opaque_part())
+    }
 }

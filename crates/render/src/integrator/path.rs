@@ -1,11 +1,11 @@
 //! Unidirectional path tracing with next-event estimation and MIS (Mitsuba `path`).
 
-use super::{next_event_estimate, power_heuristic, FirstHitAovs, Integrator};
+use super::{next_event_estimate, power_heuristic, resolve_pass_through, FirstHitAovs, Integrator};
 use crate::bsdf::BsdfContext;
 use crate::color::Rgb;
 use crate::ray::{offset_ray_origin, Ray};
 use crate::sampler::Sampler;
-use crate::scene::Scene;
+use crate::scene::{Scene, MAX_PASS_THROUGH};
 use focal_guiding::TrainingSegment;
 
 /// Settings of the path integrator, with Mitsuba's meanings.
@@ -61,6 +61,10 @@ impl Integrator for PathIntegrator {
         let mut prev_p = ray.o;
         let mut prev_bsdf_pdf = 1.0f32;
         let mut prev_bsdf_delta = true;
+        // Consecutive pass-throughs (masks) since the last vertex.
+        let mut passes: u32 = 0;
+        // Distance travelled through pass-throughs since the last vertex (for the depth AOV).
+        let mut travelled = 0.0f32;
 
         loop {
             let si = scene.intersect(&ray);
@@ -83,13 +87,6 @@ impl Integrator for PathIntegrator {
                             result += throughput * le * mis;
                         }
                     }
-                    if depth == 0 {
-                        let ctx = BsdfContext { uv: si.uv };
-                        aovs.albedo =
-                            scene.bsdfs[scene.shapes[si.shape as usize].bsdf as usize].albedo(&ctx);
-                        aovs.normal = si.sh_frame.n;
-                        aovs.depth = si.t;
-                    }
                 }
                 None => {
                     if let Some(env) = scene.environment {
@@ -110,12 +107,34 @@ impl Integrator for PathIntegrator {
                 }
             }
             let si = si.unwrap();
+            let ctx = BsdfContext { uv: si.uv };
+            // A pass-through is no vertex: the MIS state of the last vertex stays, and so does the depth
+            // (emission behind a mask is still reached by that vertex's direction).
+            let Some(bsdf) = resolve_pass_through(
+                &scene.bsdfs[scene.shapes[si.shape as usize].bsdf as usize],
+                &ctx,
+                sampler,
+                &mut throughput,
+            ) else {
+                passes += 1;
+                travelled += si.t;
+                if passes >= MAX_PASS_THROUGH || !(throughput.max_element() > 0.0) {
+                    break;
+                }
+                ray = Ray::new(offset_ray_origin(si.p, si.ng, ray.d), ray.d);
+                continue;
+            };
+            passes = 0;
+            if depth == 0 {
+                aovs.albedo = bsdf.albedo(&ctx);
+                aovs.normal = si.sh_frame.n;
+                aovs.depth = travelled + si.t;
+            }
+            travelled = 0.0;
             if depth.saturating_add(1) >= s.max_depth {
                 break;
             }
 
-            let bsdf = &scene.bsdfs[scene.shapes[si.shape as usize].bsdf as usize];
-            let ctx = BsdfContext { uv: si.uv };
             let wi = si.to_local(-ray.d);
 
             // Next-event estimation.

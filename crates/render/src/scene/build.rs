@@ -109,6 +109,20 @@ struct Builder<'a> {
     emitters: Vec<Emitter>,
     emitter_weights: Vec<f32>,
     warnings: Vec<String>,
+    /// The scene file is Mitsuba 0.x (for warnings about defaults that changed in Mitsuba 3).
+    legacy: bool,
+}
+
+/// The first `conductor`/`roughconductor` in a BSDF tree that names neither a `material` nor `eta`/`k`:
+/// Mitsuba 0.6 made it copper, Mitsuba 3 a mirror.
+fn conductor_without_material(o: &ObjectDesc) -> Option<&ObjectDesc> {
+    if matches!(o.plugin.as_str(), "conductor" | "roughconductor")
+        && ["material", "eta", "k"].iter().all(|n| o.prop(n).is_none())
+    {
+        return Some(o);
+    }
+    o.children_of(&ObjectClass::Bsdf)
+        .find_map(|c| conductor_without_material(&c.object))
 }
 
 /// Builds a scene from its description.
@@ -122,6 +136,7 @@ pub fn build_scene(desc: &SceneDesc, opts: &BuildOptions) -> SceneResult<LoadedS
         emitters: Vec::new(),
         emitter_weights: Vec::new(),
         warnings: Vec::new(),
+        legacy: desc.version < (2, 0, 0),
     };
     let root = &desc.root;
     let mut sensor: Option<&ObjectDesc> = None;
@@ -388,6 +403,15 @@ impl Builder<'_> {
             }
             Err(e) => return Err(e),
         };
+        if self.legacy {
+            if let Some(c) = conductor_without_material(o) {
+                self.warnings.push(format!(
+                    "{}: '{}' without 'material' or 'eta'/'k' is a perfect mirror as in Mitsuba 3 \
+                     (Mitsuba 0.6 used copper: add <string name=\"material\" value=\"Cu\"/> for its look)",
+                    c.loc, c.plugin
+                ));
+            }
+        }
         let i = self.bsdfs.len() as u32;
         self.bsdfs.push(bsdf);
         self.bsdf_index.insert(key, i);

@@ -8,11 +8,12 @@ pub use build::{
 };
 
 use crate::accel::{Accel, PrimHit};
-use crate::bsdf::Bsdf;
+use crate::bsdf::{Bsdf, BsdfContext};
+use crate::color::Rgb;
 use crate::emitter::{Emitter, EmitterSample};
 use crate::frame::Frame;
 use crate::geometry::{Aabb, ShapeGeometry, SurfaceInteraction};
-use crate::ray::Ray;
+use crate::ray::{offset_ray_origin, Ray};
 use glam::{Vec2, Vec3};
 
 /// Per-shape material and light bindings (parallel to [`Scene::geometries`]).
@@ -42,7 +43,13 @@ pub struct Scene {
     pub bounds: Aabb,
     emitter_cdf: Vec<f32>,
     accel: Box<dyn Accel>,
+    /// Some shape has a `mask` BSDF, so shadow rays must look for pass-through surfaces.
+    has_pass_through: bool,
 }
+
+/// Most pass-through (masked) surfaces a ray may cross before it counts as blocked: only a pathological
+/// stack of more than this many cut-outs on one line loses energy.
+pub const MAX_PASS_THROUGH: u32 = 1024;
 
 impl Scene {
     /// Assembles a scene and builds its acceleration structure.
@@ -85,7 +92,11 @@ impl Scene {
             })
             .collect();
         let accel = accel(&geometries);
+        let has_pass_through = shapes
+            .iter()
+            .any(|s| matches!(bsdfs[s.bsdf as usize], Bsdf::Mask(_)));
         Scene {
+            has_pass_through,
             geometries,
             shapes,
             bsdfs,
@@ -107,6 +118,41 @@ impl Scene {
     #[inline]
     pub fn occluded(&self, ray: &Ray) -> bool {
         self.accel.occluded(ray)
+    }
+
+    /// The fraction of light that gets along the segment `ray` (up to `t_max`): 0 if an opaque surface
+    /// blocks it, else the product of the transmittances 1 − opacity of the `mask` surfaces it crosses
+    /// (the same [`Bsdf::pass_through`] the integrators sample, so both MIS strategies agree).
+    pub fn transmittance(&self, ray: &Ray) -> Rgb {
+        if !self.has_pass_through {
+            return if self.occluded(ray) {
+                Rgb::ZERO
+            } else {
+                Rgb::ONE
+            };
+        }
+        let mut t = Rgb::ONE;
+        let mut r = *ray;
+        for _ in 0..MAX_PASS_THROUGH {
+            let Some(si) = self.intersect(&r) else {
+                return t;
+            };
+            let bsdf = &self.bsdfs[self.shapes[si.shape as usize].bsdf as usize];
+            let Some(tr) = bsdf.pass_through(&BsdfContext { uv: si.uv }) else {
+                return Rgb::ZERO;
+            };
+            t *= tr;
+            if t.max_element() <= 0.0 {
+                return Rgb::ZERO;
+            }
+            let o = offset_ray_origin(si.p, si.ng, r.d);
+            let remaining = r.t_max - (o - r.o).dot(r.d);
+            if !(remaining > 0.0) {
+                return t;
+            }
+            r = Ray::segment(o, r.d, remaining);
+        }
+        Rgb::ZERO
     }
 
     /// Computes surface data for a primitive hit.
