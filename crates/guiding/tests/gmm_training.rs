@@ -271,34 +271,6 @@ fn splits_and_merges_respect_the_component_bounds() {
 }
 
 #[test]
-fn a_split_needs_independent_rays_not_many_points_along_few() {
-    // Two foci, one component (k_init 1). 150 rays per update get 64 points each (min_points), about
-    // 9600 points but only 150 independent lines: no split, however many updates. With 4000 rays the
-    // same foci split at once.
-    let aabb = scene_box();
-    let foci = [DVec3::new(-0.5, 0.3, 0.2), DVec3::new(0.6, -0.2, 0.4)];
-    let config = GmmConfig {
-        k_init: 1,
-        ..GmmConfig::default()
-    };
-    let run = |rays: usize, updates: u32| {
-        let mut guide = GmmGuide::new(aabb, config).unwrap();
-        let mut rng = Rng(77);
-        let mut splits = 0.0;
-        for i in 0..updates {
-            let batch: Vec<TrainingSegment> = (0..rays)
-                .map(|j| segment_through(&mut rng, aabb, foci[j % 2], 1.0))
-                .collect();
-            guide.record(&batch);
-            splits += detail(&guide.update(&context(i, 3 * updates)), "splits");
-        }
-        splits
-    };
-    assert_eq!(run(150, 4), 0.0);
-    assert!(run(4000, 1) >= 1.0);
-}
-
-#[test]
 fn near_duplicate_components_merge_but_not_below_k_min() {
     // A mixture with a near-duplicate pair (A, A') and a distinct B, trained on data from A and B:
     // A and A' merge; with k_min = 3 they may not.

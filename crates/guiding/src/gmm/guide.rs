@@ -511,7 +511,7 @@ impl GmmGuide {
         })
     }
 
-    fn fit_params(&self, seed: u64, points_per_ray: usize) -> FitParams {
+    fn fit_params(&self, seed: u64) -> FitParams {
         let c = &self.config;
         let diagonal = ((self.aabb.max - self.aabb.min).as_dvec3() / self.scale).length();
         let prior_sigma = c.prior_sigma * diagonal;
@@ -527,7 +527,6 @@ impl GmmGuide {
             split_threshold: c.split_threshold,
             merge_threshold: c.merge_threshold,
             prune_share: c.prune_share,
-            points_per_ray: points_per_ray as f64,
             seed,
         }
     }
@@ -767,16 +766,14 @@ impl GuidingDistribution for GmmGuide {
         let points_seconds = start.elapsed().as_secs_f64();
 
         let fit_start = Instant::now();
-        let fit_state = |state: &MixtureState, points, tag: u64, per_ray: usize| {
-            let params = self.fit_params(mix64(seed ^ tag), per_ray);
+        let fit_state = |state: &MixtureState, points, tag: u64| {
+            let params = self.fit_params(mix64(seed ^ tag));
             let (mixture, stats, report) =
                 fit(&state.mixture, &state.stats, points, decay, &params);
             (MixtureState { mixture, stats }, report)
         };
-        let conv_per_ray = per_ray_for(pending.conv.len());
-        let div_per_ray = per_ray_for(pending.div.len());
-        let (conv, conv_report) = fit_state(&self.conv, &conv_points, 1, conv_per_ray);
-        let (div, div_report) = fit_state(&self.div, &div_points, 2, div_per_ray);
+        let (conv, conv_report) = fit_state(&self.conv, &conv_points, 1);
+        let (div, div_report) = fit_state(&self.div, &div_points, 2);
         self.conv = conv;
         self.div = div;
         let fit_seconds = fit_start.elapsed().as_secs_f64();
