@@ -5,13 +5,13 @@
 
 use super::{
     next_event_estimate, power_heuristic, resolve_pass_through, FirstHitAovs, Integrator,
-    PathSettings,
+    PassThroughRun, PathSettings,
 };
 use crate::bsdf::{Bsdf, BsdfContext};
 use crate::color::Rgb;
 use crate::ray::{offset_ray_origin, Ray};
 use crate::sampler::Sampler;
-use crate::scene::{Scene, MAX_PASS_THROUGH};
+use crate::scene::Scene;
 use focal_guiding::{GuideVertex, GuidingDistribution, TrainingSegment};
 
 /// Roughness below which a path vertex counts as glossy (Ruppert et al. 2020, as the focal-guiding code):
@@ -143,10 +143,7 @@ impl Integrator for GuidedPathIntegrator<'_> {
         let mut prev_delta = true;
         let mut pending: Vec<PendingSegment> = Vec::new();
         let mut vertex = GuideVertex::default();
-        // Consecutive pass-throughs (masks) since the last vertex, and the distance they covered (a
-        // training segment runs from vertex to vertex, through any masks).
-        let mut passes: u32 = 0;
-        let mut travelled = 0.0f32;
+        let mut run = PassThroughRun::default();
         let roulette = match (self.settings.roulette, self.guide) {
             (Roulette::Albedo, None) => Roulette::Throughput,
             (r, _) => r,
@@ -196,27 +193,24 @@ impl Integrator for GuidedPathIntegrator<'_> {
                 sampler,
                 &mut throughput,
             ) else {
-                passes += 1;
-                travelled += si.t;
-                if passes >= MAX_PASS_THROUGH || !(throughput.max_element() > 0.0) {
-                    break;
+                match run.pass(&ray, &si, throughput) {
+                    Some(next) => ray = next,
+                    None => break,
                 }
-                ray = Ray::new(offset_ray_origin(si.p, si.ng, ray.d), ray.d);
                 continue;
             };
-            passes = 0;
+            let distance = run.end(si.t);
             if let Some(last) = pending.last_mut() {
                 if last.segment.distance < 0.0 {
-                    last.segment.distance = travelled + si.t;
+                    last.segment.distance = distance;
                     last.segment.glossy_endpoint = bsdf.min_roughness() < GLOSSY_ROUGHNESS;
                 }
             }
             if depth == 0 {
                 aovs.albedo = bsdf.albedo(&ctx);
                 aovs.normal = si.sh_frame.n;
-                aovs.depth = travelled + si.t;
+                aovs.depth = distance;
             }
-            travelled = 0.0;
             if depth.saturating_add(1) >= s.max_depth {
                 break;
             }

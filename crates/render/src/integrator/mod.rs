@@ -11,7 +11,7 @@ use crate::color::Rgb;
 use crate::geometry::SurfaceInteraction;
 use crate::ray::{offset_ray_origin, Ray};
 use crate::sampler::Sampler;
-use crate::scene::Scene;
+use crate::scene::{Scene, MAX_PASS_THROUGH};
 use focal_guiding::TrainingSegment;
 use glam::Vec3;
 
@@ -97,6 +97,41 @@ pub(crate) fn next_event_estimate(
         power_heuristic(es.pdf, direction_pdf(wo, es.wi))
     };
     f * transmittance * es.weight * mis
+}
+
+/// The run of consecutive pass-throughs (masks) since a path's last vertex: how many, and the distance
+/// they covered (training segments and the depth AOV run from vertex to vertex, through any masks).
+#[derive(Default)]
+pub(crate) struct PassThroughRun {
+    passes: u32,
+    travelled: f32,
+}
+
+impl PassThroughRun {
+    /// Records a pass-through of `ray` at `si` with the path's `throughput` after it; returns
+    /// the continued ray, or `None` if the path ends (no throughput left, or [`MAX_PASS_THROUGH`] in a
+    /// row).
+    pub(crate) fn pass(
+        &mut self,
+        ray: &Ray,
+        si: &SurfaceInteraction,
+        throughput: Rgb,
+    ) -> Option<Ray> {
+        self.passes += 1;
+        self.travelled += si.t;
+        if self.passes >= MAX_PASS_THROUGH || !(throughput.max_element() > 0.0) {
+            return None;
+        }
+        Some(Ray::new(offset_ray_origin(si.p, si.ng, ray.d), ray.d))
+    }
+
+    /// At a vertex reached at distance `t` after the run: the distance from the last vertex, and the run
+    /// starts afresh.
+    pub(crate) fn end(&mut self, t: f32) -> f32 {
+        let d = self.travelled + t;
+        *self = Self::default();
+        d
+    }
 }
 
 /// The stochastic pass-through decision at a hit (see [`Bsdf::pass_through`]): `None` if the ray passes

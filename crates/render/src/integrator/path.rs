@@ -1,11 +1,14 @@
 //! Unidirectional path tracing with next-event estimation and MIS (Mitsuba `path`).
 
-use super::{next_event_estimate, power_heuristic, resolve_pass_through, FirstHitAovs, Integrator};
+use super::{
+    next_event_estimate, power_heuristic, resolve_pass_through, FirstHitAovs, Integrator,
+    PassThroughRun,
+};
 use crate::bsdf::BsdfContext;
 use crate::color::Rgb;
 use crate::ray::{offset_ray_origin, Ray};
 use crate::sampler::Sampler;
-use crate::scene::{Scene, MAX_PASS_THROUGH};
+use crate::scene::Scene;
 use focal_guiding::TrainingSegment;
 
 /// Settings of the path integrator, with Mitsuba's meanings.
@@ -61,10 +64,7 @@ impl Integrator for PathIntegrator {
         let mut prev_p = ray.o;
         let mut prev_bsdf_pdf = 1.0f32;
         let mut prev_bsdf_delta = true;
-        // Consecutive pass-throughs (masks) since the last vertex.
-        let mut passes: u32 = 0;
-        // Distance travelled through pass-throughs since the last vertex (for the depth AOV).
-        let mut travelled = 0.0f32;
+        let mut run = PassThroughRun::default();
 
         loop {
             let si = scene.intersect(&ray);
@@ -116,21 +116,18 @@ impl Integrator for PathIntegrator {
                 sampler,
                 &mut throughput,
             ) else {
-                passes += 1;
-                travelled += si.t;
-                if passes >= MAX_PASS_THROUGH || !(throughput.max_element() > 0.0) {
-                    break;
+                match run.pass(&ray, &si, throughput) {
+                    Some(next) => ray = next,
+                    None => break,
                 }
-                ray = Ray::new(offset_ray_origin(si.p, si.ng, ray.d), ray.d);
                 continue;
             };
-            passes = 0;
+            let distance = run.end(si.t);
             if depth == 0 {
                 aovs.albedo = bsdf.albedo(&ctx);
                 aovs.normal = si.sh_frame.n;
-                aovs.depth = travelled + si.t;
+                aovs.depth = distance;
             }
-            travelled = 0.0;
             if depth.saturating_add(1) >= s.max_depth {
                 break;
             }
