@@ -59,21 +59,29 @@ fn max_depth_counts_segments_like_mitsuba() {
     }
 }
 
-#[test]
-fn white_sphere_under_constant_sky_is_invisible() {
-    // A convex white (ρ = 1) diffuse sphere under a uniform sky of radiance 1 reflects exactly 1 everywhere:
-    // the image is uniformly 1 (exercises BSDF sampling, environment NEE and their MIS).
-    let xml = r#"<scene version="3.0.0">
+/// A unit sphere with `bsdf` under a uniform sky of radiance 1, filling the middle of a 16² view.
+fn sphere_under_sky(bsdf: &str) -> String {
+    format!(
+        r#"<scene version="3.0.0">
     <integrator type="path"/>
     <sensor type="perspective">
         <float name="fov" value="30"/>
         <transform name="to_world"><lookat origin="0, 0, 5" target="0, 0, 0" up="0, 1, 0"/></transform>
         <film type="hdrfilm"><integer name="width" value="16"/><integer name="height" value="16"/></film>
     </sensor>
-    <shape type="sphere"><bsdf type="diffuse"><rgb name="reflectance" value="1"/></bsdf></shape>
-    <emitter type="constant"><rgb name="radiance" value="1"/></emitter>
-</scene>"#;
-    let s = load_str(xml, std::path::Path::new("."));
+    <shape type="sphere">{bsdf}</shape>
+    {SKY}
+</scene>"#
+    )
+}
+
+#[test]
+fn white_sphere_under_constant_sky_is_invisible() {
+    // A convex white (ρ = 1) diffuse sphere under a uniform sky of radiance 1 reflects exactly 1 everywhere:
+    // the image is uniformly 1 (exercises BSDF sampling, environment NEE and their MIS).
+    let xml =
+        sphere_under_sky(r#"<bsdf type="diffuse"><rgb name="reflectance" value="1"/></bsdf>"#);
+    let s = load_str(&xml, std::path::Path::new("."));
     let out = render_loaded(&s, &settings(256, 3, 0));
     let worst = out
         .image
@@ -87,35 +95,6 @@ fn white_sphere_under_constant_sky_is_invisible() {
     assert!(m.iter().all(|c| (c - 1.0).abs() < 0.003), "{m:?}");
     assert!(worst < 0.06, "worst pixel deviates by {worst}");
 }
-
-/// A camera looking down through a mask of opacity `o` (nested diffuse `top`) hung 1 cm above a diffuse
-/// plane (ρ = 0.5), lit by `light`. The mask is 400 × 400 so that the plane sees the sky only through it.
-fn masked_plane(o: f32, top: f32, light: &str, integrator: &str) -> String {
-    format!(
-        r#"<scene version="3.0.0">
-    <integrator type="{integrator}"/>
-    <sensor type="perspective">
-        <float name="fov" value="20"/>
-        <transform name="to_world"><lookat origin="0, 0, 5" target="0, 0, 0" up="0, 1, 0"/></transform>
-        <film type="hdrfilm"><integer name="width" value="16"/><integer name="height" value="16"/></film>
-    </sensor>
-    <shape type="rectangle">
-        <transform name="to_world"><scale value="2"/></transform>
-        <bsdf type="diffuse"><rgb name="reflectance" value="0.5"/></bsdf>
-    </shape>
-    <shape type="rectangle">
-        <transform name="to_world"><scale value="200"/><translate z="0.01"/></transform>
-        <bsdf type="mask">
-            <float name="opacity" value="{o}"/>
-            <bsdf type="diffuse"><rgb name="reflectance" value="{top}"/></bsdf>
-        </bsdf>
-    </shape>
-    {light}
-</scene>"#
-    )
-}
-
-const SKY: &str = r#"<emitter type="constant"><rgb name="radiance" value="1"/></emitter>"#;
 
 #[test]
 fn mask_over_plane_under_sky_matches_closed_form() {
@@ -160,23 +139,15 @@ fn mask_attenuates_shadow_rays_from_a_point_light() {
 fn difftrans_sphere_under_constant_sky_is_invisible() {
     // A lossless diffuse transmitter (T = 1) closed into a sphere under a uniform sky of radiance 1:
     // every ray leaves with radiance 1, however often it crosses the shell.
-    let xml = r#"<scene version="3.0.0">
-    <integrator type="path"/>
-    <sensor type="perspective">
-        <float name="fov" value="30"/>
-        <transform name="to_world"><lookat origin="0, 0, 5" target="0, 0, 0" up="0, 1, 0"/></transform>
-        <film type="hdrfilm"><integer name="width" value="16"/><integer name="height" value="16"/></film>
-    </sensor>
-    <shape type="sphere"><bsdf type="difftrans"><rgb name="transmittance" value="1"/></bsdf></shape>
-    <emitter type="constant"><rgb name="radiance" value="1"/></emitter>
-</scene>"#;
-    let m = mean_of(xml, 128);
+    let xml = |t: &str| {
+        sphere_under_sky(&format!(
+            r#"<bsdf type="difftrans"><rgb name="transmittance" value="{t}"/></bsdf>"#
+        ))
+    };
+    let m = mean_of(&xml("1"), 128);
     assert!(m.iter().all(|c| (c - 1.0).abs() < 0.005), "{m:?}");
     // T = 0.5 loses energy at every crossing: the shell is darker than the sky around it.
-    let half = mean_of(
-        &xml.replace(r#"value="1"/></bsdf>"#, r#"value="0.5"/></bsdf>"#),
-        32,
-    );
+    let half = mean_of(&xml("0.5"), 32);
     assert!(half.iter().all(|c| *c > 0.3 && *c < 0.95), "{half:?}");
 }
 

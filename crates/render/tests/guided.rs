@@ -257,27 +257,8 @@ fn octree_learns_the_camera_obscura_pinhole() {
 /// must stay unguided, non-vertex events, and training segments run through them to the next vertex.
 #[test]
 fn guided_paths_pass_through_masks_without_bias() {
-    let xml = r#"<scene version="3.0.0">
-    <integrator type="path"/>
-    <sensor type="perspective">
-        <float name="fov" value="20"/>
-        <transform name="to_world"><lookat origin="0, 0, 5" target="0, 0, 0" up="0, 1, 0"/></transform>
-        <film type="hdrfilm"><integer name="width" value="16"/><integer name="height" value="16"/></film>
-    </sensor>
-    <shape type="rectangle">
-        <transform name="to_world"><scale value="2"/></transform>
-        <bsdf type="diffuse"><rgb name="reflectance" value="0.5"/></bsdf>
-    </shape>
-    <shape type="rectangle">
-        <transform name="to_world"><scale value="200"/><translate z="0.01"/></transform>
-        <bsdf type="mask">
-            <float name="opacity" value="0.5"/>
-            <bsdf type="diffuse"><rgb name="reflectance" value="0"/></bsdf>
-        </bsdf>
-    </shape>
-    <emitter type="constant"><rgb name="radiance" value="1"/></emitter>
-</scene>"#;
-    let scene = load_str(xml, std::path::Path::new("."));
+    let xml = masked_plane(0.5, 0.0, SKY, "path");
+    let scene = load_str(&xml, std::path::Path::new("."));
     for method in [GuidingMethod::Gmm, GuidingMethod::Octree] {
         let mut guide = guide_for(method, &scene);
         let mut s = guided_settings(128, 11, 0, Combine::InverseVariance);

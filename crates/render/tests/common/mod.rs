@@ -98,3 +98,33 @@ pub fn mitsuba_mean(json_name: &str) -> ([f64; 3], [f64; 3]) {
 pub fn all_finite(img: &Image) -> bool {
     img.rgb.iter().all(|p| p.iter().all(|c| c.is_finite()))
 }
+
+/// A uniform sky of radiance 1.
+pub const SKY: &str = r#"<emitter type="constant"><rgb name="radiance" value="1"/></emitter>"#;
+
+/// A camera looking down through a mask of opacity `o` (nested diffuse `top`) hung 1 cm above a diffuse
+/// plane (ρ = 0.5), lit by `light`. The mask is 400 × 400 so that the plane sees the sky only through it.
+pub fn masked_plane(o: f32, top: f32, light: &str, integrator: &str) -> String {
+    format!(
+        r#"<scene version="3.0.0">
+    <integrator type="{integrator}"/>
+    <sensor type="perspective">
+        <float name="fov" value="20"/>
+        <transform name="to_world"><lookat origin="0, 0, 5" target="0, 0, 0" up="0, 1, 0"/></transform>
+        <film type="hdrfilm"><integer name="width" value="16"/><integer name="height" value="16"/></film>
+    </sensor>
+    <shape type="rectangle">
+        <transform name="to_world"><scale value="2"/></transform>
+        <bsdf type="diffuse"><rgb name="reflectance" value="0.5"/></bsdf>
+    </shape>
+    <shape type="rectangle">
+        <transform name="to_world"><scale value="200"/><translate z="0.01"/></transform>
+        <bsdf type="mask">
+            <float name="opacity" value="{o}"/>
+            <bsdf type="diffuse"><rgb name="reflectance" value="{top}"/></bsdf>
+        </bsdf>
+    </shape>
+    {light}
+</scene>"#
+    )
+}
