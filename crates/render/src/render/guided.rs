@@ -105,9 +105,12 @@ pub struct IterationStats {
     /// Guided training iterations: Σc²·p_mix/p_bsdf / Σc² over the recorded segments (c sampled with
     /// p_mix), the estimated ratio of the second moment of sampling each segment's direction by the BSDF
     /// alone to that of the guided mixture: above 1 where the guide finds contributions the BSDF misses.
-    pub bsdf_moment_ratio: Option<f64>,
-    /// The sums behind `bsdf_moment_ratio`: Σc² and Σc²·p_mix/p_bsdf.
-    #[serde(skip)]
+    /// Kept as its two sums, Σc² and Σc²·p_mix/p_bsdf (so that iterations can be pooled); the JSON
+    /// record holds the ratio, or null without guided segments.
+    #[serde(
+        rename = "bsdf_moment_ratio",
+        serialize_with = "serialize_moment_ratio"
+    )]
     pub moments: [f64; 2],
     /// Wall time the guide spent taking this iteration's segments (between passes).
     pub record_s: f64,
@@ -115,6 +118,12 @@ pub struct IterationStats {
     pub update: Option<UpdateStats>,
     /// Weight of this iteration in the output image.
     pub weight: f64,
+}
+
+/// Writes [`IterationStats::moments`] as their ratio.
+fn serialize_moment_ratio<S: serde::Serializer>(m: &[f64; 2], s: S) -> Result<S::Ok, S::Error> {
+    let ratio = (m[0] > 0.0 && m[1].is_finite()).then(|| m[1] / m[0]);
+    serde::Serialize::serialize(&ratio, s)
 }
 
 /// The outcome of the fallback check ([`GuidedRenderSettings::fallback`]), for the JSON record.
@@ -363,8 +372,6 @@ pub fn render_guided(
             render_s,
             samples_per_s: (pixels * spp as u64) as f64 / render_s.max(1e-9),
             segments,
-            bsdf_moment_ratio: (moments[0] > 0.0 && moments[1].is_finite())
-                .then(|| moments[1] / moments[0]),
             moments,
             record_s,
             update,
@@ -472,7 +479,6 @@ mod tests {
             render_s,
             samples_per_s: 0.0,
             segments: 0,
-            bsdf_moment_ratio: None,
             moments,
             record_s: 0.0,
             update: None,
