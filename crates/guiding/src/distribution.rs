@@ -85,6 +85,11 @@ pub struct TrainingSegment {
     /// renderer what sampling ω by the BSDF alone would have cost: the segment's second moment under
     /// BSDF sampling is c²·pdf/bsdf_pdf (c sampled with `pdf`).
     pub bsdf_pdf: f32,
+    /// The guide's own pdf of ω at x_k (0 when the vertex was not guided).
+    pub guide_pdf: f32,
+    /// The probability α with which the guide rather than the BSDF was sampled at x_k, so that
+    /// `pdf` = α·`guide_pdf` + (1 − α)·`bsdf_pdf` (0 when the vertex was not guided).
+    pub guide_fraction: f32,
     /// True if the endpoint x_{k+1} is glossy (min roughness < 0.3): a virtual image is possible, so the
     /// whole forward line is a converging candidate and the backward line a diverging one.
     pub glossy_endpoint: bool,
@@ -174,6 +179,16 @@ pub trait GuidingDistribution: Send + Sync {
     /// [`GuidingDistribution::pdf`] at a vertex made by [`GuidingDistribution::prepare`].
     fn pdf_at(&self, vertex: &GuideVertex, d: Vec3) -> f32 {
         self.pdf(vertex.x, vertex.normal, d)
+    }
+
+    /// The probability with which a renderer should sample this guide rather than the BSDF at `x`, if
+    /// the distribution learned one (see [`crate::SelectionGrid`]); `None` leaves the renderer's fixed
+    /// fraction. At 0 the renderer samples the BSDF alone, except at a random
+    /// [`crate::EXPLORATION_PROBABILITY`] share of such vertices, where it uses
+    /// [`crate::EXPLORATION_FRACTION`] so that the distribution keeps learning there.
+    fn selection_probability(&self, x: Vec3) -> Option<f32> {
+        let _ = x;
+        None
     }
 
     /// Takes one batch of the current iteration's training segments. The renderer calls it between

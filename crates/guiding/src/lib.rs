@@ -9,9 +9,14 @@
 mod distribution;
 pub mod gmm;
 pub mod octree;
+mod selection;
 
 pub use distribution::{
     Aabb3, GuideSample, GuideVertex, GuidingDistribution, TrainingSegment, UpdateContext,
     UpdateStats,
 };
 pub use gmm::{GmmConfig, GmmGuide};
+pub use selection::{
+    SelectionConfig, SelectionGrid, SelectionSummary, EXPLORATION_FRACTION,
+    EXPLORATION_PROBABILITY, SELECTION_CANDIDATES,
+};

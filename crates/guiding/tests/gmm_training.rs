@@ -85,6 +85,8 @@ fn virtual_image_batch(rng: &mut Rng, n: usize) -> Vec<TrainingSegment> {
                 weight: 0.5,
                 pdf: (1.0 / (4.0 * PI)) as f32,
                 bsdf_pdf: (1.0 / (4.0 * PI)) as f32,
+                guide_pdf: 0.0,
+                guide_fraction: 0.0,
                 glossy_endpoint: true,
             }
         })
@@ -299,6 +301,8 @@ fn near_duplicate_components_merge_but_not_below_k_min() {
                 weight: 1.0,
                 pdf: 0.1,
                 bsdf_pdf: 0.1,
+                guide_pdf: 0.0,
+                guide_fraction: 0.0,
                 glossy_endpoint: false,
             }
         })
@@ -552,6 +556,8 @@ fn degenerate_inputs_give_finite_models() {
         weight,
         pdf: 0.3,
         bsdf_pdf: 0.3,
+        guide_pdf: 0.0,
+        guide_fraction: 0.0,
         glossy_endpoint: glossy,
     };
     let cases: Vec<(&str, Vec<TrainingSegment>, bool)> = vec![
@@ -637,11 +643,15 @@ fn degenerate_inputs_give_finite_models() {
                 TrainingSegment {
                     pdf: f32::NAN,
                     bsdf_pdf: f32::NAN,
+                    guide_pdf: 0.0,
+                    guide_fraction: 0.0,
                     ..seg(DVec3::new(0.0, 0.5, 0.0), DVec3::X, 1.0, 1.0, false)
                 },
                 TrainingSegment {
                     pdf: 0.0,
                     bsdf_pdf: 0.0,
+                    guide_pdf: 0.0,
+                    guide_fraction: 0.0,
                     ..seg(DVec3::new(0.0, 0.5, 0.0), DVec3::X, 1.0, 1.0, false)
                 },
             ],

@@ -71,6 +71,8 @@ fn focal_segments(rng: &mut Rng, n: usize) -> Vec<TrainingSegment> {
                 weight: 1.0,
                 pdf: (1.0 / (4.0 * PI)) as f32,
                 bsdf_pdf: (1.0 / (4.0 * PI)) as f32,
+                guide_pdf: 0.0,
+                guide_fraction: 0.0,
                 glossy_endpoint: false,
             }
         })
@@ -92,6 +94,8 @@ fn virtual_image_segments(rng: &mut Rng, n: usize) -> Vec<TrainingSegment> {
                 weight: 0.5,
                 pdf: (1.0 / (4.0 * PI)) as f32,
                 bsdf_pdf: (1.0 / (4.0 * PI)) as f32,
+                guide_pdf: 0.0,
+                guide_fraction: 0.0,
                 glossy_endpoint: true,
             }
         })

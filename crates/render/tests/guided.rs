@@ -38,7 +38,15 @@ fn render_with(
 }
 
 fn guide_for(method: GuidingMethod, scene: &LoadedScene) -> Box<dyn GuidingDistribution> {
-    make_guide(method, &scene.scene.bounds, &GuideParams::default())
+    guide_with(method, scene, &GuideParams::default())
+}
+
+fn guide_with(
+    method: GuidingMethod,
+    scene: &LoadedScene,
+    params: &GuideParams,
+) -> Box<dyn GuidingDistribution> {
+    make_guide(method, &scene.scene.bounds, params)
         .unwrap()
         .unwrap()
 }
@@ -66,6 +74,26 @@ fn check_unbiased(
     seeds: u64,
     combine: Combine,
 ) {
+    check_unbiased_with(
+        method,
+        &GuideParams::default(),
+        name,
+        res,
+        spp,
+        seeds,
+        combine,
+    );
+}
+
+fn check_unbiased_with(
+    method: GuidingMethod,
+    params: &GuideParams,
+    name: &str,
+    res: &str,
+    spp: u32,
+    seeds: u64,
+    combine: Combine,
+) {
     let scene = load(&reference_scene(name), &[("res", res)]);
     let pt: Vec<[f64; 3]> = (0..seeds)
         .map(|s| {
@@ -76,7 +104,7 @@ fn check_unbiased(
         .collect();
     let guided: Vec<[f64; 3]> = (0..seeds)
         .map(|s| {
-            let mut guide = guide_for(method, &scene);
+            let mut guide = guide_with(method, &scene, params);
             let out = render_with(
                 &scene,
                 Some(guide.as_mut()),
@@ -134,6 +162,45 @@ fn inverse_variance_combination_keeps_the_mean() {
         6,
         Combine::InverseVariance,
     );
+}
+
+/// The learned selection probability (opt-in) samples the BSDF alone where it chose 0, the guide with
+/// α = 0.5 at an exploring eighth of those vertices, and its own choice elsewhere: a per-vertex random
+/// α, which must keep the estimator unbiased. On the caustic it chooses 0 in most cells and larger
+/// fractions near the ball, so all three cases occur.
+#[test]
+fn learned_selection_keeps_the_mean() {
+    let mut params = GuideParams::default();
+    params.gmm.learn_selection = true;
+    check_unbiased_with(
+        GuidingMethod::Gmm,
+        &params,
+        "caustic",
+        "48",
+        64,
+        6,
+        Combine::Last,
+    );
+    let scene = load(&reference_scene("caustic"), &[("res", "48")]);
+    let mut guide = guide_with(GuidingMethod::Gmm, &scene, &params);
+    let out = render_with(
+        &scene,
+        Some(guide.as_mut()),
+        &guided_settings(64, 900, 0, Combine::Last),
+    );
+    let last = out
+        .iterations
+        .iter()
+        .rev()
+        .find_map(|it| it.update.as_ref())
+        .expect("training happened");
+    let skip = last
+        .details
+        .iter()
+        .find(|(n, _)| n == "selection_skip_share")
+        .map(|(_, v)| *v)
+        .expect("the guide reports its selection");
+    assert!(skip > 0.0 && skip < 1.0, "skip share {skip}");
 }
 
 #[test]

@@ -168,6 +168,8 @@ pub fn segment_through(rng: &mut Rng, aabb: Aabb3, y: DVec3, w: f32) -> Training
         weight: w,
         pdf: (1.0 / (4.0 * PI)) as f32,
         bsdf_pdf: (1.0 / (4.0 * PI)) as f32,
+        guide_pdf: 0.0,
+        guide_fraction: 0.0,
         glossy_endpoint: false,
     }
 }

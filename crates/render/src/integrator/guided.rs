@@ -12,7 +12,10 @@ use crate::color::Rgb;
 use crate::ray::{offset_ray_origin, Ray};
 use crate::sampler::Sampler;
 use crate::scene::Scene;
-use focal_guiding::{GuideVertex, GuidingDistribution, TrainingSegment};
+use focal_guiding::{
+    GuideVertex, GuidingDistribution, TrainingSegment, EXPLORATION_FRACTION,
+    EXPLORATION_PROBABILITY,
+};
 
 /// Roughness below which a path vertex counts as glossy (Ruppert et al. 2020, as the focal-guiding code):
 /// a glossy endpoint can form a virtual image, so the whole line through it is a focal candidate.
@@ -65,8 +68,12 @@ pub struct GuidedSettings {
     /// Also train on segments that escaped the scene, as half-lines clipped to the scene box (light
     /// through a window from the sky). Rath et al. drop them; both guides benefit alike.
     pub train_escaped: bool,
-    /// Probability of sampling the guide rather than the BSDF at a guided vertex (Rath: 0.5).
+    /// Probability of sampling the guide rather than the BSDF at a guided vertex (Rath: 0.5), where
+    /// the guide has not learned one (or `learned_selection` is off).
     pub guide_fraction: f32,
+    /// Use the guide's learned selection probability where it has one
+    /// ([`GuidingDistribution::selection_probability`]) instead of `guide_fraction`.
+    pub learned_selection: bool,
     /// Restrict guide sampling to the shading hemisphere at opaque (non-transmissive) BSDFs, if the
     /// guide supports it (the GMM's truncated sampling); the octree ignores the hint.
     pub hemisphere_hint: bool,
@@ -79,6 +86,7 @@ impl Default for GuidedSettings {
             roulette: Roulette::Albedo,
             train_escaped: true,
             guide_fraction: 0.5,
+            learned_selection: true,
             hemisphere_hint: true,
         }
     }
@@ -104,18 +112,39 @@ struct PendingSegment {
     result_before: Rgb,
 }
 
-impl GuidedPathIntegrator<'_> {
-    /// The mixture pdf of direction `wo_world` at a guided vertex.
+/// The guide of one vertex and the probability α of sampling it rather than the BSDF.
+#[derive(Clone, Copy)]
+struct VertexGuide<'g> {
+    guide: &'g dyn GuidingDistribution,
+    alpha: f32,
+}
+
+impl VertexGuide<'_> {
+    /// The mixture pdf of direction `wo_world` and the guide's own pdf of it.
     #[inline]
-    fn mixture_pdf(
-        &self,
-        guide: &dyn GuidingDistribution,
-        vertex: &GuideVertex,
-        p_bsdf: f32,
-        wo_world: glam::Vec3,
-    ) -> f32 {
-        let a = self.settings.guide_fraction;
-        a * guide.pdf_at(vertex, wo_world) + (1.0 - a) * p_bsdf
+    fn mixture_pdf(&self, vertex: &GuideVertex, p_bsdf: f32, wo_world: glam::Vec3) -> (f32, f32) {
+        let p_guide = self.guide.pdf_at(vertex, wo_world);
+        (self.alpha * p_guide + (1.0 - self.alpha) * p_bsdf, p_guide)
+    }
+}
+
+impl GuidedPathIntegrator<'_> {
+    /// The guide of a vertex at `x` with a smooth BSDF, if it is sampled there: the learned selection
+    /// probability (or the fixed fraction); where that is 0, the guide only at a random exploring share
+    /// of the vertices (one uniform number is drawn only then).
+    #[inline]
+    fn vertex_guide(&self, x: glam::Vec3, sampler: &mut Sampler) -> Option<VertexGuide<'_>> {
+        let guide = self.guide?;
+        let learned = if self.settings.learned_selection {
+            guide.selection_probability(x)
+        } else {
+            None
+        };
+        let mut alpha = learned.unwrap_or(self.settings.guide_fraction);
+        if alpha <= 0.0 && learned.is_some() && sampler.next_1d() < EXPLORATION_PROBABILITY {
+            alpha = EXPLORATION_FRACTION;
+        }
+        (alpha > 0.0).then_some(VertexGuide { guide, alpha })
     }
 }
 
@@ -216,13 +245,17 @@ impl Integrator for GuidedPathIntegrator<'_> {
             }
 
             let wi = si.to_local(-ray.d);
-            let guide = self.guide.filter(|_| bsdf.has_smooth());
+            let guide = if bsdf.has_smooth() {
+                self.vertex_guide(si.p, sampler)
+            } else {
+                None
+            };
             // The hemisphere the BSDF reflects into (shading normal on the incident side), for guides that
             // can truncate their sampling to it.
             let hint = (self.settings.hemisphere_hint && !bsdf.has_transmission())
                 .then(|| si.sh_frame.n * wi.z.signum());
             if let Some(g) = guide {
-                g.prepare(si.p, hint, &mut vertex);
+                g.guide.prepare(si.p, hint, &mut vertex);
             }
 
             // Next-event estimation, MIS-weighted against the full sampling mixture.
@@ -230,14 +263,13 @@ impl Integrator for GuidedPathIntegrator<'_> {
                 * next_event_estimate(scene, &si, bsdf, &ctx, wi, sampler, |wo, wo_world| {
                     let p_bsdf = bsdf.pdf(&ctx, wi, wo);
                     match guide {
-                        Some(g) => self.mixture_pdf(g, &vertex, p_bsdf, wo_world),
+                        Some(g) => g.mixture_pdf(&vertex, p_bsdf, wo_world).0,
                         None => p_bsdf,
                     }
                 });
 
             // Direction sampling: BSDF, or the one-sample BSDF/guide mixture.
-            let Some(step) = sample_direction(self, bsdf, guide, &vertex, &ctx, &si, wi, sampler)
-            else {
+            let Some(step) = sample_direction(bsdf, guide, &vertex, &ctx, &si, wi, sampler) else {
                 break;
             };
             if self.record && !step.delta {
@@ -249,6 +281,8 @@ impl Integrator for GuidedPathIntegrator<'_> {
                         weight: 0.0,
                         pdf: step.pdf,
                         bsdf_pdf: step.bsdf_pdf,
+                        guide_pdf: step.guide_pdf,
+                        guide_fraction: guide.map_or(0.0, |g| g.alpha),
                         glossy_endpoint: false,
                     },
                     result_before: result,
@@ -311,6 +345,8 @@ struct Step {
     pdf: f32,
     /// The BSDF's own pdf of the direction.
     bsdf_pdf: f32,
+    /// The guide's own pdf of the direction (0 at unguided vertices).
+    guide_pdf: f32,
     eta: f32,
     delta: bool,
 }
@@ -319,9 +355,8 @@ struct Step {
 #[allow(clippy::too_many_arguments)]
 #[inline]
 fn sample_direction(
-    integrator: &GuidedPathIntegrator<'_>,
     bsdf: &Bsdf,
-    guide: Option<&dyn GuidingDistribution>,
+    guide: Option<VertexGuide<'_>>,
     vertex: &GuideVertex,
     ctx: &BsdfContext,
     si: &crate::geometry::SurfaceInteraction,
@@ -338,11 +373,12 @@ fn sample_direction(
             weight: bs.weight,
             pdf: bs.pdf,
             bsdf_pdf: bs.pdf,
+            guide_pdf: 0.0,
             eta: bs.eta,
             delta: bs.delta,
         });
     };
-    let alpha = integrator.settings.guide_fraction;
+    let alpha = guide.alpha;
     if u_select >= alpha {
         // BSDF branch.
         let bs = bsdf.sample(ctx, wi, u1, u2)?;
@@ -353,13 +389,14 @@ fn sample_direction(
                 weight: bs.weight / (1.0 - alpha),
                 pdf: (1.0 - alpha) * bs.pdf,
                 bsdf_pdf: bs.pdf,
+                guide_pdf: 0.0,
                 eta: bs.eta,
                 delta: true,
             });
         }
         let f = bsdf.eval(ctx, wi, bs.wo);
         let p_bsdf = bsdf.pdf(ctx, wi, bs.wo);
-        let pdf = integrator.mixture_pdf(guide, vertex, p_bsdf, wo_world);
+        let (pdf, guide_pdf) = guide.mixture_pdf(vertex, p_bsdf, wo_world);
         if !(pdf > 0.0) || f == Rgb::ZERO {
             return None;
         }
@@ -368,13 +405,14 @@ fn sample_direction(
             weight: f / pdf,
             pdf,
             bsdf_pdf: p_bsdf,
+            guide_pdf,
             eta: bs.eta,
             delta: false,
         })
     } else {
         // Guide branch: the rescaled selection number is uniform again and drives the guide's choice.
         let u0 = (u_select / alpha).min(1.0 - f32::EPSILON / 2.0);
-        let gs = guide.sample_at(vertex, [u0, u2.x, u2.y])?;
+        let gs = guide.guide.sample_at(vertex, [u0, u2.x, u2.y])?;
         let wo = si.to_local(gs.direction);
         let f = bsdf.eval(ctx, wi, wo);
         if f == Rgb::ZERO {
@@ -396,6 +434,7 @@ fn sample_direction(
             weight: f / pdf,
             pdf,
             bsdf_pdf: p_bsdf,
+            guide_pdf: gs.pdf,
             eta,
             delta: false,
         })

@@ -311,13 +311,17 @@ impl Builder<'_> {
                     };
                     spec.settings.roulette = Roulette::parse(&i.string_or("roulette", default_rr)?)
                         .map_err(|e| i.error(e))?;
-                    let fraction = i.float_or("guide_fraction", 0.5)?;
-                    if !(0.0..1.0).contains(&fraction) {
-                        return Err(
-                            i.error(format!("guide_fraction must lie in [0, 1), got {fraction}"))
-                        );
+                    // A fraction given in the scene is used everywhere; otherwise a guide that
+                    // learns one (the GMM's selection grid) chooses per region.
+                    if let Some(fraction) = i.float_opt("guide_fraction")? {
+                        if !(0.0..1.0).contains(&fraction) {
+                            return Err(i.error(format!(
+                                "guide_fraction must lie in [0, 1), got {fraction}"
+                            )));
+                        }
+                        spec.settings.guide_fraction = fraction as f32;
+                        spec.settings.learned_selection = false;
                     }
-                    spec.settings.guide_fraction = fraction as f32;
                     spec.budget_s = i.float_opt("budget")?;
                     if let Some(b) = spec.budget_s {
                         if !(b > 0.0) {

@@ -1,0 +1,276 @@
+//! The learned guide/BSDF selection probability: the importance-reweighted second moments choose the
+//! fraction a closed form says is best, per region, from the finest level with enough data.
+
+use focal_guiding::{
+    Aabb3, GmmConfig, GmmGuide, GuidingDistribution, SelectionConfig, SelectionGrid,
+    TrainingSegment, UpdateContext,
+};
+use glam::Vec3;
+
+fn unit_box() -> Aabb3 {
+    Aabb3 {
+        min: Vec3::ZERO,
+        max: Vec3::ONE,
+    }
+}
+
+/// A tiny deterministic generator (SplitMix64) for the synthetic segments.
+struct Rng(u64);
+
+impl Rng {
+    fn uniform(&mut self) -> f64 {
+        self.0 = self.0.wrapping_add(0x9e37_79b9_7f4a_7c15);
+        let mut z = self.0;
+        z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
+        ((z ^ (z >> 31)) >> 11) as f64 / (1u64 << 53) as f64
+    }
+}
+
+/// A one-dimensional stand-in for a vertex's sampling problem on u ∈ [0, 1): the BSDF's density is
+/// uniform, the guide's is 2 on [0, ½) and 0 above, and the integrand is `integrand(u)`. Draws `n`
+/// directions at `origin` from the mixture with fraction `alpha0` and returns them as training segments
+/// (contribution F/p₀).
+fn segments(
+    origin: Vec3,
+    n: usize,
+    alpha0: f64,
+    integrand: impl Fn(f64) -> f64,
+    rng: &mut Rng,
+) -> Vec<TrainingSegment> {
+    let guide_pdf = |u: f64| if u < 0.5 { 2.0 } else { 0.0 };
+    (0..n)
+        .filter_map(|_| {
+            let u = if rng.uniform() < alpha0 {
+                0.5 * rng.uniform()
+            } else {
+                rng.uniform()
+            };
+            let (pg, pb) = (guide_pdf(u), 1.0);
+            let p0 = alpha0 * pg + (1.0 - alpha0) * pb;
+            let f = integrand(u);
+            (f > 0.0).then(|| TrainingSegment {
+                origin,
+                direction: Vec3::Z,
+                distance: 1.0,
+                weight: (f / p0) as f32,
+                pdf: p0 as f32,
+                bsdf_pdf: pb as f32,
+                guide_pdf: pg as f32,
+                guide_fraction: alpha0 as f32,
+                glossy_endpoint: false,
+            })
+        })
+        .collect()
+}
+
+/// For the integrand F = w·2·[u < ½] + (1 − w) (a share w of it in the guide's support), the second
+/// moment with fraction a is ∫F²/p_a = (w + (1 − w)/2)²/(½(2a + 1 − a))·½ + ((1 − w))²/(1 − a)·½; the
+/// grid must choose the candidate that minimises it.
+fn exact_best(w: f64) -> f32 {
+    let m = |a: f64| {
+        let inside = 2.0 * w + (1.0 - w);
+        let outside = 1.0 - w;
+        0.5 * inside * inside / (a + 1.0) + 0.5 * outside * outside / (1.0 - a)
+    };
+    let best = focal_guiding::SELECTION_CANDIDATES[1..]
+        .iter()
+        .copied()
+        .min_by(|a, b| m(*a as f64).total_cmp(&m(*b as f64)))
+        .unwrap();
+    if m(0.0) <= 1.1 * m(best as f64) {
+        0.0
+    } else {
+        best
+    }
+}
+
+#[test]
+fn chooses_the_fraction_with_the_least_second_moment_per_region() {
+    let mut grid = SelectionGrid::new(unit_box(), SelectionConfig::default()).unwrap();
+    assert!(grid.fraction_at(Vec3::splat(0.5)).is_none(), "untrained");
+    let mut rng = Rng(7);
+    // Four regions in the corners of the box, each its own finest cell, with the integrand all in the
+    // guide's support, mostly, half and not at all.
+    let cases = [
+        (Vec3::new(0.05, 0.05, 0.05), 1.0),
+        (Vec3::new(0.95, 0.05, 0.05), 0.8),
+        (Vec3::new(0.05, 0.95, 0.05), 0.5),
+        (Vec3::new(0.05, 0.05, 0.95), 0.0),
+    ];
+    for (origin, w) in cases {
+        let f = move |u: f64| w * if u < 0.5 { 2.0 } else { 0.0 } + (1.0 - w);
+        grid.record(&segments(origin, 40_000, 0.5, f, &mut rng));
+    }
+    let summary = grid.update();
+    assert_eq!(summary.coarse_share, 0.0, "every region has enough data");
+    for (origin, w) in cases {
+        let chosen = grid.fraction_at(origin).unwrap();
+        eprintln!("w = {w}: chose {chosen}, closed form {}", exact_best(w));
+        assert_eq!(chosen, exact_best(w), "w = {w}");
+    }
+    // The closed forms span the range, so the test sees distinct choices.
+    assert_eq!(exact_best(1.0), 0.9);
+    assert_eq!(exact_best(0.0), 0.0);
+    assert!(exact_best(0.5) > 0.0 && exact_best(0.5) < 0.9);
+}
+
+#[test]
+fn sparse_cells_use_the_coarser_levels_choice_and_unguided_segments_teach_nothing() {
+    let config = SelectionConfig::default();
+    let mut grid = SelectionGrid::new(unit_box(), config).unwrap();
+    let mut rng = Rng(11);
+    let guided_only = |u: f64| if u < 0.5 { 2.0 } else { 0.0 };
+    // Unguided segments (fraction 0) carry no guide pdf: the grid stays untrained.
+    grid.record(&segments(
+        Vec3::splat(0.2),
+        1000,
+        0.0,
+        guided_only,
+        &mut rng,
+    ));
+    grid.update();
+    assert!(!grid.is_trained());
+    // Many segments in one finest cell, a few in a neighbour of the same level-1 octant.
+    grid.record(&segments(
+        Vec3::splat(0.02),
+        5000,
+        0.5,
+        guided_only,
+        &mut rng,
+    ));
+    grid.record(&segments(Vec3::splat(0.2), 10, 0.5, |_| 1.0, &mut rng));
+    let summary = grid.update();
+    assert!(summary.coarse_share > 0.0);
+    assert_eq!(grid.fraction_at(Vec3::splat(0.02)), Some(0.9));
+    // The sparse cell's own data would say "skip", but 10 segments are too few: it inherits 0.9.
+    assert_eq!(grid.fraction_at(Vec3::splat(0.2)), Some(0.9));
+    // Points outside the box clamp into its border cells; NaN lands in a valid cell.
+    assert_eq!(grid.fraction_at(Vec3::splat(-5.0)), Some(0.9));
+    assert!(grid.fraction_at(Vec3::NAN).is_some());
+}
+
+#[test]
+fn invalid_segments_are_ignored_and_the_choice_stays_finite() {
+    let mut grid = SelectionGrid::new(unit_box(), SelectionConfig::default()).unwrap();
+    let good = TrainingSegment {
+        origin: Vec3::splat(0.5),
+        direction: Vec3::Z,
+        distance: 1.0,
+        weight: 1.0,
+        pdf: 1.0,
+        bsdf_pdf: 1.0,
+        guide_pdf: 1.0,
+        guide_fraction: 0.5,
+        glossy_endpoint: false,
+    };
+    let bad = [
+        TrainingSegment {
+            weight: f32::NAN,
+            ..good
+        },
+        TrainingSegment {
+            weight: f32::INFINITY,
+            ..good
+        },
+        TrainingSegment { pdf: 0.0, ..good },
+        TrainingSegment {
+            guide_pdf: -1.0,
+            ..good
+        },
+        TrainingSegment {
+            bsdf_pdf: f32::NAN,
+            ..good
+        },
+        TrainingSegment {
+            origin: Vec3::NAN,
+            ..good
+        },
+        // BSDF and guide pdf both 0: every candidate's moment would be infinite.
+        TrainingSegment {
+            bsdf_pdf: 0.0,
+            guide_pdf: 0.0,
+            ..good
+        },
+    ];
+    grid.record(&bad);
+    assert_eq!(grid.update().segments, 0);
+    assert!(!grid.is_trained());
+    // A guide pdf of 0 where the BSDF's is positive: every α > 0 only dilutes the BSDF, so α = 0.
+    let only_bsdf: Vec<TrainingSegment> = (0..200)
+        .map(|_| TrainingSegment {
+            guide_pdf: 0.0,
+            pdf: 0.5,
+            weight: 2.0,
+            ..good
+        })
+        .collect();
+    grid.record(&only_bsdf);
+    grid.update();
+    assert_eq!(grid.fraction_at(Vec3::splat(0.5)), Some(0.0));
+    assert!(grid.validate().is_ok());
+}
+
+#[test]
+fn gmm_guide_learns_and_saves_its_selection() {
+    let aabb = Aabb3 {
+        min: Vec3::splat(-1.0),
+        max: Vec3::splat(1.0),
+    };
+    let mut rng = Rng(3);
+    // Rays from around the box through a focus at the origin, guided with α = 0.5, whose whole
+    // contribution lies where the guide samples: the guide learns α = 0.9 there.
+    let mut batch = Vec::new();
+    for _ in 0..4000 {
+        let o = Vec3::new(
+            rng.uniform() as f32 * 1.6 - 0.8,
+            rng.uniform() as f32 * 1.6 - 0.8,
+            -0.9,
+        );
+        batch.push(TrainingSegment {
+            origin: o,
+            direction: (-o).normalize(),
+            distance: o.length() * 2.0,
+            weight: 1.0,
+            pdf: 2.0,
+            bsdf_pdf: 0.1,
+            guide_pdf: 3.9,
+            guide_fraction: 0.5,
+            glossy_endpoint: false,
+        });
+    }
+    let ctx = |iteration| UpdateContext {
+        iteration,
+        training_iterations: 4,
+        final_build: false,
+        threads: 1,
+    };
+    let learning = GmmConfig {
+        learn_selection: true,
+        ..GmmConfig::default()
+    };
+    let mut guide = GmmGuide::new(aabb, learning).unwrap();
+    assert_eq!(guide.selection_probability(Vec3::new(0.0, 0.0, -0.9)), None);
+    guide.record(&batch);
+    let stats = guide.update(&ctx(0));
+    let detail = |name: &str| {
+        stats
+            .details
+            .iter()
+            .find(|(n, _)| n == name)
+            .map(|(_, v)| *v)
+            .unwrap()
+    };
+    assert_eq!(detail("selection_segments"), 4000.0);
+    assert!((detail("selection_mean") - 0.9).abs() < 1e-6);
+    let x = Vec3::new(0.1, -0.2, -0.9);
+    assert_eq!(guide.selection_probability(x), Some(0.9));
+    let loaded = GmmGuide::load(&guide.save()).unwrap();
+    assert_eq!(loaded.selection_probability(x), Some(0.9));
+    // Switched off (the default), the guide leaves the renderer's fraction.
+    let mut fixed = GmmGuide::new(aabb, GmmConfig::default()).unwrap();
+    fixed.record(&batch);
+    fixed.update(&ctx(0));
+    assert!(fixed.is_trained());
+    assert_eq!(fixed.selection_probability(x), None);
+}
