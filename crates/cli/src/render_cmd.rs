@@ -79,9 +79,9 @@ pub struct GuidingArgs {
     /// How the iterations' images are combined: variance (inverse-variance weighting) or last (Rath).
     #[arg(long, default_value = "variance")]
     pub combine: String,
-    /// Probability of sampling the guide instead of the BSDF at every guided vertex (default 0.5, Rath et
-    /// al.). Without it, a GMM guide with `--gmm learn_selection=true` chooses it per region in the
-    /// final render.
+    /// Probability of sampling the guide instead of the BSDF at every guided vertex, for either guide.
+    /// Without it the octree uses 0.5 (Rath et al.) and the GMM its own `--gmm guide_fraction=` (0.75),
+    /// or with `--gmm learn_selection=true` a fraction learned per region for the final render.
     #[arg(long)]
     pub guide_fraction: Option<f32>,
     /// Russian roulette of guided renders: albedo (default; survival by the product of BSDF albedos),

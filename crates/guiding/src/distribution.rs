@@ -182,8 +182,8 @@ pub trait GuidingDistribution: Send + Sync {
     }
 
     /// The probability with which a renderer should sample this guide rather than the BSDF at `x`, if
-    /// the distribution learned one (see [`crate::SelectionGrid`]); `None` leaves the renderer's fixed
-    /// fraction. At 0 the renderer samples the BSDF alone, except at a random
+    /// the distribution has its own (a fixed one, or one learned per region: [`crate::SelectionGrid`]);
+    /// `None` leaves the renderer's fixed fraction. At 0 the renderer samples the BSDF alone, except at a random
     /// [`crate::EXPLORATION_PROBABILITY`] share of such vertices, where it uses
     /// [`crate::EXPLORATION_FRACTION`] so that the distribution keeps learning there.
     fn selection_probability(&self, x: Vec3) -> Option<f32> {

@@ -239,10 +239,10 @@ fn gmm_guide_learns_and_saves_its_selection() {
             glossy_endpoint: false,
         });
     }
-    let ctx = |iteration| UpdateContext {
-        iteration,
+    let ctx = |final_build| UpdateContext {
+        iteration: 0,
         training_iterations: 4,
-        final_build: false,
+        final_build,
         threads: 1,
     };
     let learning = GmmConfig {
@@ -250,9 +250,15 @@ fn gmm_guide_learns_and_saves_its_selection() {
         ..GmmConfig::default()
     };
     let mut guide = GmmGuide::new(aabb, learning).unwrap();
-    assert_eq!(guide.selection_probability(Vec3::new(0.0, 0.0, -0.9)), None);
+    let x = Vec3::new(0.1, -0.2, -0.9);
+    // Untrained, the guide asks for its fixed fraction.
+    assert_eq!(guide.selection_probability(x), Some(0.75));
     guide.record(&batch);
-    let stats = guide.update(&ctx(0));
+    // Before the final render, training keeps the fixed fraction although the grid has learned.
+    guide.update(&ctx(false));
+    assert_eq!(guide.selection_probability(x), Some(0.75));
+    guide.record(&batch);
+    let stats = guide.update(&ctx(true));
     let detail = |name: &str| {
         stats
             .details
@@ -263,14 +269,25 @@ fn gmm_guide_learns_and_saves_its_selection() {
     };
     assert_eq!(detail("selection_segments"), 4000.0);
     assert!((detail("selection_mean") - 0.9).abs() < 1e-6);
-    let x = Vec3::new(0.1, -0.2, -0.9);
     assert_eq!(guide.selection_probability(x), Some(0.9));
     let loaded = GmmGuide::load(&guide.save()).unwrap();
     assert_eq!(loaded.selection_probability(x), Some(0.9));
-    // Switched off (the default), the guide leaves the renderer's fraction.
-    let mut fixed = GmmGuide::new(aabb, GmmConfig::default()).unwrap();
+    // Switched off (the default), the guide asks for its fixed fraction everywhere.
+    let config = GmmConfig {
+        guide_fraction: 0.6,
+        ..GmmConfig::default()
+    };
+    let mut fixed = GmmGuide::new(aabb, config).unwrap();
     fixed.record(&batch);
-    fixed.update(&ctx(0));
+    fixed.update(&ctx(true));
     assert!(fixed.is_trained());
-    assert_eq!(fixed.selection_probability(x), None);
+    assert_eq!(fixed.selection_probability(x), Some(0.6));
+    assert!(GmmGuide::new(
+        aabb,
+        GmmConfig {
+            guide_fraction: 1.0,
+            ..GmmConfig::default()
+        }
+    )
+    .is_err());
 }

@@ -68,11 +68,12 @@ pub struct GuidedSettings {
     /// Also train on segments that escaped the scene, as half-lines clipped to the scene box (light
     /// through a window from the sky). Rath et al. drop them; both guides benefit alike.
     pub train_escaped: bool,
-    /// Probability of sampling the guide rather than the BSDF at a guided vertex (Rath: 0.5), where
-    /// the guide has not learned one (or `learned_selection` is off).
+    /// Probability of sampling the guide rather than the BSDF at a guided vertex (Rath: 0.5), for
+    /// guides that ask for none (the octree) or when `learned_selection` is off.
     pub guide_fraction: f32,
-    /// Use the guide's learned selection probability where it has one
-    /// ([`GuidingDistribution::selection_probability`]) instead of `guide_fraction`.
+    /// Use the guide's own selection probability where it has one
+    /// ([`GuidingDistribution::selection_probability`]: the GMM's fixed or learned fraction) instead of
+    /// `guide_fraction`; off when the user gave a fraction.
     pub learned_selection: bool,
     /// Restrict guide sampling to the shading hemisphere at opaque (non-transmissive) BSDFs, if the
     /// guide supports it (the GMM's truncated sampling); the octree ignores the hint.

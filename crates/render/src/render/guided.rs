@@ -305,13 +305,7 @@ pub fn render_guided(
             let pass_start = Instant::now();
             let batch = {
                 let integrator = GuidedPathIntegrator {
-                    // Training samples with the fixed fraction: a young guide's learned selection
-                    // would skip it where it is not good yet, and starve both the guide and the
-                    // selection learner of the guided paths that would make it good.
-                    settings: GuidedSettings {
-                        learned_selection: settings.integrator.learned_selection && !training,
-                        ..settings.integrator
-                    },
+                    settings: settings.integrator,
                     guide: if guided { guide.as_deref() } else { None },
                     record: training,
                 };
