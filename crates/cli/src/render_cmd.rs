@@ -94,8 +94,8 @@ pub struct GuidingArgs {
     /// Give up guiding where it does not pay: a time-budget render whose guided time per sample, over
     /// the unguided one, exceeds twice the guided segments' estimated gain in second moment over BSDF
     /// sampling (after the first two guided iterations) renders the rest unguided. Off by default: the
-    /// guide is still young at the check, and the small-lights-in-shades scene falls back although
-    /// guiding wins there.
+    /// guide is still young at the check, and the caustic, door-gap and small-lights-in-shades scenes
+    /// fall back although guiding wins there.
     #[arg(long)]
     pub fallback: bool,
     /// Octree relative split threshold (orth.threshold).
