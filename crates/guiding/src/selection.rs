@@ -89,6 +89,12 @@ impl SelectionConfig {
     }
 }
 
+/// Cells of all levels coarser than `level` (8⁰ + 8¹ + … + 8^(level−1)): where `level` starts in the
+/// coarsest-first cell list, and for `level` = the number of levels, the list's length.
+fn cells_before_level(level: u32) -> usize {
+    ((1usize << (3 * level)) - 1) / 7
+}
+
 /// One cell's accumulated statistics: the number of segments and, per candidate, Σ c²·p₀/p_a.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
 struct CellSums {
@@ -116,7 +122,7 @@ pub struct SelectionGrid {
     min: [f32; 3],
     /// Finest cells per unit length, per axis.
     cells_per_unit: [f32; 3],
-    /// All levels' cells, coarsest first (level l starts at (8^l − 1)/7).
+    /// All levels' cells, coarsest first (level l starts at `cells_before_level(l)`).
     sums: Vec<CellSums>,
     /// The chosen fraction per finest cell; empty until an update saw data.
     table: Vec<f32>,
@@ -131,12 +137,11 @@ impl SelectionGrid {
         let aabb = aabb.padded("selection grid")?;
         let res = (1u32 << (config.levels - 1)) as f32;
         let extent = aabb.max - aabb.min;
-        let cells: usize = (0..config.levels).map(|l| 1usize << (3 * l)).sum();
         Ok(Self {
             config,
             min: aabb.min.to_array(),
             cells_per_unit: (Vec3::splat(res) / extent).to_array(),
-            sums: vec![CellSums::default(); cells],
+            sums: vec![CellSums::default(); cells_before_level(config.levels)],
             table: Vec::new(),
             pending: 0,
         })
@@ -171,7 +176,7 @@ impl SelectionGrid {
     fn cell_index(&self, c: [u32; 3], level: u32) -> usize {
         let shift = self.config.levels - 1 - level;
         let r = 1usize << level;
-        let offset = ((1usize << (3 * level)) - 1) / 7;
+        let offset = cells_before_level(level);
         let (i, j, k) = (
             (c[0] >> shift) as usize,
             (c[1] >> shift) as usize,
@@ -315,9 +320,8 @@ impl SelectionGrid {
     /// Checks a decoded grid's consistency (lengths, finite values, fractions among the candidates).
     pub fn validate(&self) -> Result<(), String> {
         self.config.validate()?;
-        let cells: usize = (0..self.config.levels).map(|l| 1usize << (3 * l)).sum();
         let res = self.finest_resolution() as usize;
-        if self.sums.len() != cells
+        if self.sums.len() != cells_before_level(self.config.levels)
             || !(self.table.is_empty() || self.table.len() == res * res * res)
         {
             return Err("selection grid has inconsistent lengths".into());
