@@ -91,13 +91,16 @@ pub struct GuidingArgs {
     /// Do not train on segments that escaped the scene (Rath et al. drop them).
     #[arg(long)]
     pub no_escaped: bool,
-    /// Give up guiding where it does not pay: a time-budget render whose guided time per sample, over
-    /// the unguided one, exceeds twice the guided segments' estimated gain in second moment over BSDF
-    /// sampling (after the first two guided iterations) renders the rest unguided. Off by default: the
-    /// guide is still young at the check, and the caustic, door-gap and small-lights-in-shades scenes
-    /// fall back although guiding wins there.
-    #[arg(long)]
+    /// Give up guiding where it does not pay (the default for the GMM guide; the octree baseline runs as
+    /// published unless this is given): a time-budget render whose guided time per sample, over the
+    /// unguided one, exceeds three times the guided segments' estimated gain in second moment over BSDF
+    /// sampling at three consecutive checks (after the third, fourth and fifth guided iterations)
+    /// renders the rest unguided.
+    #[arg(long, conflicts_with = "no_fallback")]
     pub fallback: bool,
+    /// Never give up guiding (see --fallback).
+    #[arg(long)]
+    pub no_fallback: bool,
     /// Octree relative split threshold (orth.threshold).
     #[arg(long)]
     pub octree_threshold: Option<f64>,
@@ -324,7 +327,11 @@ pub fn run(a: RenderArgs) -> Result<()> {
                 budget,
                 combine,
                 pretrained: g.load_guide.is_some(),
-                fallback: g.fallback,
+                fallback: if g.no_fallback {
+                    false
+                } else {
+                    g.fallback || spec.method == GuidingMethod::Gmm
+                },
             };
             let out = render_guided(
                 &loaded.scene,

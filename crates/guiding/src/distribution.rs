@@ -93,6 +93,15 @@ pub struct TrainingSegment {
     /// True if the endpoint x_{k+1} is glossy (min roughness < 0.3): a virtual image is possible, so the
     /// whole forward line is a converging candidate and the backward line a diverging one.
     pub glossy_endpoint: bool,
+    /// The part of `weight` that is emission found at x_{k+1} itself, MIS-weighted against next-event
+    /// estimation (0 if x_{k+1} emits nothing, or through a delta vertex where NEE cannot compete).
+    pub emitted: f32,
+    /// Next-event estimation's solid-angle pdf at x_k of the emission in `emitted` (0 without it); that
+    /// emission's MIS weight was the power heuristic pdf²/(pdf² + emitter_pdf²).
+    pub emitter_pdf: f32,
+    /// The renderer's weight of the path's pixel, 1/(I² + ε) with I the pixel's estimate so far, so that
+    /// second moments weigh every pixel's relative error alike, as relMSE does (1 when unknown).
+    pub pixel_weight: f32,
 }
 
 /// A direction proposed by a guide.

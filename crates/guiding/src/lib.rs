@@ -9,6 +9,7 @@
 mod distribution;
 pub mod gmm;
 pub mod octree;
+mod segment_moment;
 mod selection;
 
 pub use distribution::{

@@ -88,6 +88,9 @@ fn virtual_image_batch(rng: &mut Rng, n: usize) -> Vec<TrainingSegment> {
                 guide_pdf: 0.0,
                 guide_fraction: 0.0,
                 glossy_endpoint: true,
+                emitted: 0.0,
+                emitter_pdf: 0.0,
+                pixel_weight: 1.0,
             }
         })
         .collect()
@@ -304,6 +307,9 @@ fn near_duplicate_components_merge_but_not_below_k_min() {
                 guide_pdf: 0.0,
                 guide_fraction: 0.0,
                 glossy_endpoint: false,
+                emitted: 0.0,
+                emitter_pdf: 0.0,
+                pixel_weight: 1.0,
             }
         })
         .collect();
@@ -559,6 +565,9 @@ fn degenerate_inputs_give_finite_models() {
         guide_pdf: 0.0,
         guide_fraction: 0.0,
         glossy_endpoint: glossy,
+        emitted: 0.0,
+        emitter_pdf: 0.0,
+        pixel_weight: 1.0,
     };
     let cases: Vec<(&str, Vec<TrainingSegment>, bool)> = vec![
         (

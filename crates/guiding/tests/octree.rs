@@ -74,6 +74,9 @@ fn focal_segments(rng: &mut Rng, n: usize) -> Vec<TrainingSegment> {
                 guide_pdf: 0.0,
                 guide_fraction: 0.0,
                 glossy_endpoint: false,
+                emitted: 0.0,
+                emitter_pdf: 0.0,
+                pixel_weight: 1.0,
             }
         })
         .collect()
@@ -97,6 +100,9 @@ fn virtual_image_segments(rng: &mut Rng, n: usize) -> Vec<TrainingSegment> {
                 guide_pdf: 0.0,
                 guide_fraction: 0.0,
                 glossy_endpoint: true,
+                emitted: 0.0,
+                emitter_pdf: 0.0,
+                pixel_weight: 1.0,
             }
         })
         .collect()

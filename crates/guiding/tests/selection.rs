@@ -59,6 +59,9 @@ fn segments(
                 guide_pdf: pg as f32,
                 guide_fraction: alpha0 as f32,
                 glossy_endpoint: false,
+                emitted: 0.0,
+                emitter_pdf: 0.0,
+                pixel_weight: 1.0,
             })
         })
         .collect()
@@ -163,6 +166,9 @@ fn invalid_segments_are_ignored_and_the_choice_stays_finite() {
         guide_pdf: 1.0,
         guide_fraction: 0.5,
         glossy_endpoint: false,
+        emitted: 0.0,
+        emitter_pdf: 0.0,
+        pixel_weight: 1.0,
     };
     let bad = [
         TrainingSegment {
@@ -237,6 +243,9 @@ fn gmm_guide_learns_and_saves_its_selection() {
             guide_pdf: 3.9,
             guide_fraction: 0.5,
             glossy_endpoint: false,
+            emitted: 0.0,
+            emitter_pdf: 0.0,
+            pixel_weight: 1.0,
         });
     }
     let ctx = |final_build| UpdateContext {

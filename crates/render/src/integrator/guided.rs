@@ -186,12 +186,15 @@ impl Integrator for GuidedPathIntegrator<'_> {
                 if let Some(env) = scene.environment {
                     if visible {
                         let le = scene.emitters[env as usize].eval_environment(ray.d);
-                        let mis = if prev_delta {
-                            1.0
+                        let (mis, nee_pdf) = if prev_delta {
+                            (1.0, 0.0)
                         } else {
-                            power_heuristic(prev_pdf, scene.pdf_emitter_direction_env(ray.d))
+                            let nee_pdf = scene.pdf_emitter_direction_env(ray.d);
+                            (power_heuristic(prev_pdf, nee_pdf), nee_pdf)
                         };
-                        result += throughput * le * mis;
+                        let emitted = throughput * le * mis;
+                        result += emitted;
+                        note_emission(&mut pending, emitted, nee_pdf);
                     }
                 }
                 if self.settings.train_escaped {
@@ -206,12 +209,15 @@ impl Integrator for GuidedPathIntegrator<'_> {
             if let Some(e) = scene.shapes[si.shape as usize].emitter {
                 let le = scene.emitters[e as usize].eval_area(si.to_local(-ray.d).z);
                 if visible && le != Rgb::ZERO {
-                    let mis = if prev_delta {
-                        1.0
+                    let (mis, nee_pdf) = if prev_delta {
+                        (1.0, 0.0)
                     } else {
-                        power_heuristic(prev_pdf, scene.pdf_emitter_direction_area(prev_p, &si))
+                        let nee_pdf = scene.pdf_emitter_direction_area(prev_p, &si);
+                        (power_heuristic(prev_pdf, nee_pdf), nee_pdf)
                     };
-                    result += throughput * le * mis;
+                    let emitted = throughput * le * mis;
+                    result += emitted;
+                    note_emission(&mut pending, emitted, nee_pdf);
                 }
             }
             let ctx = BsdfContext { uv: si.uv };
@@ -285,6 +291,9 @@ impl Integrator for GuidedPathIntegrator<'_> {
                         guide_pdf: step.guide_pdf,
                         guide_fraction: guide.map_or(0.0, |g| g.alpha),
                         glossy_endpoint: false,
+                        emitted: 0.0,
+                        emitter_pdf: 0.0,
+                        pixel_weight: 1.0,
                     },
                     result_before: result,
                 });
@@ -333,6 +342,18 @@ impl Integrator for GuidedPathIntegrator<'_> {
             }
         }
         result
+    }
+}
+
+/// Books emission MIS-weighted against NEE (pdf `nee_pdf`, 0 where NEE cannot compete) on the segment
+/// that reached it, if it is the endpoint of the last pending segment (whose distance is still open).
+#[inline]
+fn note_emission(pending: &mut [PendingSegment], emitted: Rgb, nee_pdf: f32) {
+    if let Some(last) = pending.last_mut() {
+        if last.segment.distance < 0.0 && nee_pdf > 0.0 {
+            last.segment.emitted += emitted.element_sum() / 3.0;
+            last.segment.emitter_pdf = nee_pdf;
+        }
     }
 }
 

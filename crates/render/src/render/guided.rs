@@ -11,14 +11,17 @@
 //!
 //! Under a time budget a training iteration whose deadline has passed before it starts is skipped (a
 //! slow guided pass must not push the whole render past its budget), and with `fallback` the render
-//! checks after [`FALLBACK_GUIDED_ITERATIONS`] guided iterations whether guiding pays for its cost at all (see
-//! [`GuidedRenderSettings::fallback`]).
+//! checks from [`FALLBACK_GUIDED_ITERATIONS`] guided iterations on whether guiding pays for its cost at
+//! all (see [`GuidedRenderSettings::fallback`]). Training segments carry per-pixel weights from the
+//! image so far ([`relative_pixel_weights`]), so that what is learned from second moments weighs every
+//! pixel's relative error alike.
 //!
 //! The guide is updated (record → update) between iterations only; during an iteration it is
 //! read-only. Training segments are handed to the guide after every pass in tile order, so a fixed seed
 //! and sample budget give the same learned model and image whatever the number of threads.
 
 use super::combine::{inverse_variance_weights, weighted_image, Combine, IterationImage};
+use super::pixel_weights::relative_pixel_weights;
 use super::{next_pass_spp, PassRunner, Progress, ProgressCounter, RenderSettings, RenderStats};
 use crate::camera::Camera;
 use crate::film::{FilmSpec, Image};
@@ -30,13 +33,20 @@ use std::time::{Duration, Instant};
 /// Pixel samples per pass at most during training, bounding the memory of one pass's segments.
 pub const MAX_TRAINING_PASS_SAMPLES: u64 = 1 << 20;
 
-/// A time-budget render compares guided and unguided efficiency once this many guided training
+/// A time-budget render first compares guided and unguided efficiency once this many guided training
 /// iterations have rendered.
-pub const FALLBACK_GUIDED_ITERATIONS: usize = 2;
+pub const FALLBACK_GUIDED_ITERATIONS: usize = 3;
+/// Guiding is given up only after this many consecutive checks (one after every guided training
+/// iteration from the [`FALLBACK_GUIDED_ITERATIONS`]th on, each pooling all guided iterations so far)
+/// found it not paying; the first check that finds it paying ends the checks. R is heavy-tailed and
+/// grows as the guide learns: a single early check gave up on focal scenes (camera obscura, sms-ring).
+pub const FALLBACK_CONFIRMATIONS: u32 = 3;
 /// Guiding is given up only if it looks more than this many times less efficient than path tracing
 /// (T > margin × R, see `fallback_check`): the guide is still young at the check, and R, a mean of
-/// heavy-tailed terms, is more often under- than overestimated.
-pub const FALLBACK_MARGIN: f64 = 2.0;
+/// heavy-tailed terms, is more often under- than overestimated. Measured (gmm, 20 s, two runs each),
+/// T/R at the third check was 3.7–5.2 on the Cornell box, veach-mis and veach-bidir, but 2.8 once on
+/// the camera obscura, where guiding wins, and at most 2.1 on sms-ring: a margin of 2 gave up on those.
+pub const FALLBACK_MARGIN: f64 = 3.0;
 
 /// How long a guided render runs and how it is split into iterations.
 #[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
@@ -75,13 +85,13 @@ pub struct GuidedRenderSettings {
     /// The guide is already trained (loaded from a file): no training iterations, the whole budget is
     /// one guided iteration.
     pub pretrained: bool,
-    /// Give up guiding if it does not pay (time budget and inverse-variance combination only): after
-    /// [`FALLBACK_GUIDED_ITERATIONS`] guided training iterations, the guided segments' importance-
+    /// Give up guiding if it does not pay (time budget and inverse-variance combination only): from
+    /// [`FALLBACK_GUIDED_ITERATIONS`] guided training iterations on, the guided segments' importance-
     /// reweighted second moments tell whether the guide samples better than the BSDF (R, see
-    /// `fallback_check`); if guided time per sample over unguided (T) exceeds [`FALLBACK_MARGIN`] × R,
-    /// training stops and the rest of the budget is rendered unguided, without the guide's cost (the
-    /// Cornell box and veach-mis: guiding costs 3× a path tracer's time per sample and R ≤ 1). The
-    /// output then combines the unguided iterations.
+    /// `fallback_check`); if guided time per sample over unguided (T) exceeds [`FALLBACK_MARGIN`] × R
+    /// at [`FALLBACK_CONFIRMATIONS`] consecutive checks, training stops and the rest of the budget is
+    /// rendered unguided, without the guide's cost (the Cornell box and veach-mis: guiding costs 3–5× a
+    /// path tracer's time per sample and R ≤ 1). The output then combines the unguided iterations.
     pub fallback: bool,
 }
 
@@ -102,11 +112,12 @@ pub struct IterationStats {
     pub samples_per_s: f64,
     /// Training segments recorded.
     pub segments: u64,
-    /// Guided training iterations: Σc²·p_mix/p_bsdf / Σc² over the recorded segments (c sampled with
-    /// p_mix), the estimated ratio of the second moment of sampling each segment's direction by the BSDF
-    /// alone to that of the guided mixture: above 1 where the guide finds contributions the BSDF misses.
-    /// Kept as its two sums, Σc² and Σc²·p_mix/p_bsdf (so that iterations can be pooled); the JSON
-    /// record holds the ratio, or null without guided segments.
+    /// Guided training iterations: over the recorded guided segments, the estimated second moment of
+    /// sampling each one's direction by the BSDF alone (guide fraction 0) over that of the mixture it was
+    /// sampled with (`TrainingSegment::second_moment_with_fraction`: NEE-aware emission, per-pixel
+    /// weights): above 1 where the guide finds contributions the BSDF misses. Kept as its two sums, the
+    /// mixture's and the BSDF's (so that iterations can be pooled); the JSON record holds the ratio, or
+    /// null without guided segments.
     #[serde(
         rename = "bsdf_moment_ratio",
         serialize_with = "serialize_moment_ratio"
@@ -134,8 +145,10 @@ pub struct FallbackCheck {
     pub bsdf_moment_ratio: f64,
     /// T: guided time per sample over unguided time per sample.
     pub time_ratio: f64,
-    /// The render went on unguided (T > margin × R).
+    /// The render went on unguided (T > margin × R at every one of the checks).
     pub fell_back: bool,
+    /// Checks made (each after one guided training iteration).
+    pub checks: u32,
 }
 
 /// The result of a guided render.
@@ -150,14 +163,15 @@ pub struct GuidedOutput {
     pub fallback: Option<FallbackCheck>,
 }
 
-/// The fallback check after the first guided iterations. The guided segments of the last
-/// [`FALLBACK_GUIDED_ITERATIONS`] guided iterations, each sampled with p_mix, give by importance
-/// reweighting the ratio R = Σc²·p_mix/p_bsdf / Σc² of the second moment of sampling their directions
-/// by the BSDF alone to that of the mixture (unbiased, and it sees the rare paths the guide found, which
-/// a few unguided samples per pixel do not). Guiding is efficient if its time per sample relative to
-/// the unguided first iteration's, T, is below R: the costs compared are T (guided) and R (unguided),
-/// per unit of second moment and unguided time. `None` without an unguided first iteration and the
-/// guided iterations.
+/// One fallback check, pooling every guided iteration so far. Their segments, each sampled with p_mix,
+/// give by importance reweighting R, the ratio of the second moment their vertices would have had with
+/// the BSDF alone (guide fraction 0) to the one they had (unbiased, and it sees the rare paths the guide
+/// found, which a few unguided samples per pixel do not; emission is reweighted together with NEE and
+/// every pixel weighs alike, see `TrainingSegment::second_moment_with_fraction`). Guiding is efficient if
+/// its time per sample relative to the unguided first iteration's, T, is below R: the costs compared are
+/// T (guided) and R (unguided), per unit of second moment and unguided time. `fell_back` is this check's
+/// verdict (T > [`FALLBACK_MARGIN`] × R); `checks` is 1. `None` without an unguided first iteration and
+/// [`FALLBACK_GUIDED_ITERATIONS`] guided ones.
 fn fallback_check(stats: &[IterationStats]) -> Option<FallbackCheck> {
     let rendered: Vec<&IterationStats> = stats.iter().filter(|s| s.spp > 0).collect();
     let first = *rendered.first()?;
@@ -165,8 +179,10 @@ fn fallback_check(stats: &[IterationStats]) -> Option<FallbackCheck> {
         return None;
     }
     let guided: Vec<&IterationStats> = rendered.iter().copied().filter(|s| s.guided).collect();
-    let last = guided.get(guided.len().checked_sub(FALLBACK_GUIDED_ITERATIONS)?..)?;
-    let (m_mix, m_bsdf) = last
+    if guided.len() < FALLBACK_GUIDED_ITERATIONS {
+        return None;
+    }
+    let (m_mix, m_bsdf) = guided
         .iter()
         .fold((0.0, 0.0), |(a, b), s| (a + s.moments[0], b + s.moments[1]));
     if !(m_mix > 0.0 && m_bsdf > 0.0 && m_bsdf.is_finite()) {
@@ -174,14 +190,46 @@ fn fallback_check(stats: &[IterationStats]) -> Option<FallbackCheck> {
     }
     let ratio = m_bsdf / m_mix;
     let per_sample = |s: &IterationStats| s.render_s / s.spp.max(1) as f64;
-    let guided_time: f64 = last.iter().map(|s| s.render_s).sum::<f64>()
-        / last.iter().map(|s| s.spp as f64).sum::<f64>().max(1.0);
+    let guided_time: f64 = guided.iter().map(|s| s.render_s).sum::<f64>()
+        / guided.iter().map(|s| s.spp as f64).sum::<f64>().max(1.0);
     let time_ratio = guided_time / per_sample(first).max(1e-12);
     Some(FallbackCheck {
         bsdf_moment_ratio: ratio,
         time_ratio,
         fell_back: ratio * FALLBACK_MARGIN < time_ratio,
+        checks: 1,
     })
+}
+
+/// The fallback decision as checks come in ([`FALLBACK_CONFIRMATIONS`]).
+#[derive(Clone, Copy, Debug, Default)]
+struct FallbackState {
+    /// The last check, with `checks` counting all checks made.
+    last: Option<FallbackCheck>,
+    /// Consecutive checks that found guiding not paying.
+    against: u32,
+    /// No more checks: guiding was found paying, or given up.
+    decided: bool,
+}
+
+impl FallbackState {
+    /// Takes one check's verdict.
+    fn take(&mut self, mut check: FallbackCheck) {
+        check.checks = self.last.map_or(0, |c| c.checks) + 1;
+        if check.fell_back {
+            self.against += 1;
+            check.fell_back = self.against >= FALLBACK_CONFIRMATIONS;
+            self.decided = check.fell_back;
+        } else {
+            self.decided = true;
+        }
+        self.last = Some(check);
+    }
+
+    /// True once guiding has been given up.
+    fn fell_back(&self) -> bool {
+        self.last.is_some_and(|c| c.fell_back)
+    }
 }
 
 /// The spp of each training iteration under a sample budget, and the final iteration's.
@@ -271,20 +319,26 @@ pub fn render_guided(
     let mut last_runner_threads = 0;
     let mut rejected = 0u64;
     let mut total_spp = 0u32;
-    let mut fallback: Option<FallbackCheck> = None;
-    let fell_back = |f: &Option<FallbackCheck>| f.is_some_and(|f| f.fell_back);
+    let mut fallback = FallbackState::default();
     let plans = training_plans
         .into_iter()
         .chain(std::iter::once(final_plan));
     for (index, plan) in plans.enumerate() {
         let index = index as u32;
         let training = index < training_iterations;
-        if training && (fell_back(&fallback) || index > 0 && is_past(&plan)) {
+        if training && (fallback.fell_back() || index > 0 && is_past(&plan)) {
             continue;
         }
-        let guided = (index > 0 || settings.pretrained) && guide.is_some() && !fell_back(&fallback);
+        let guided = (index > 0 || settings.pretrained) && guide.is_some() && !fallback.fell_back();
         let mut runner = PassRunner::new(scene, camera, spec, &settings.render, halves)
             .with_index_offset(total_spp);
+        if training && guided {
+            runner.set_pixel_weights(relative_pixel_weights(
+                &images,
+                spec.crop_size.x,
+                spec.crop_size.y,
+            ));
+        }
         last_runner_threads = runner.threads();
         let iter_start = Instant::now();
         let mut segments = 0u64;
@@ -314,11 +368,14 @@ pub fn render_guided(
             if training {
                 segments += batch.len() as u64;
                 if guided {
-                    for seg in &batch {
-                        let c2 = seg.weight as f64 * seg.weight as f64;
-                        if c2.is_finite() && seg.bsdf_pdf > 0.0 {
-                            moments[0] += c2;
-                            moments[1] += c2 * seg.pdf as f64 / seg.bsdf_pdf as f64;
+                    for seg in batch.iter().filter(|s| s.guide_fraction > 0.0) {
+                        let mix = seg.second_moment_with_fraction(seg.guide_fraction);
+                        let bsdf = seg.second_moment_with_fraction(0.0);
+                        if let (Some(mix), Some(bsdf)) = (mix, bsdf) {
+                            if mix.is_finite() && bsdf.is_finite() {
+                                moments[0] += mix;
+                                moments[1] += bsdf;
+                            }
                         }
                     }
                 }
@@ -383,15 +440,17 @@ pub fn render_guided(
             && time_budget
             && !settings.pretrained
             && training
-            && fallback.is_none()
-            && stats.iter().filter(|s| s.guided && s.spp > 0).count() == FALLBACK_GUIDED_ITERATIONS
+            && guided
+            && !fallback.decided
         {
-            fallback = fallback_check(&stats);
+            if let Some(check) = fallback_check(&stats) {
+                fallback.take(check);
+            }
         }
     }
 
     let weights = match settings.combine {
-        Combine::InverseVariance if fell_back(&fallback) => {
+        Combine::InverseVariance if fallback.fell_back() => {
             // The unguided iterations are one estimator: weight them by their samples.
             let used: Vec<&IterationStats> = stats.iter().filter(|s| s.spp > 0).collect();
             let total: f64 = used
@@ -462,7 +521,7 @@ pub fn render_guided(
             threads: last_runner_threads,
         },
         iterations: stats,
-        fallback,
+        fallback: fallback.last,
     }
 }
 
@@ -488,35 +547,63 @@ mod tests {
 
     #[test]
     fn fallback_weighs_the_moment_ratio_against_the_time_ratio() {
-        // Unguided: 0.1 s per sample. Guided: 0.3 s per sample (T = 3).
+        // Unguided: 0.1 s per sample. Guided: 0.4 s per sample (T = 4), three guided iterations.
         let first = iteration(false, 10, 1.0, [0.0, 0.0]);
         let guided = |m_bsdf: f64| {
             vec![
                 first.clone(),
-                iteration(true, 4, 1.2, [1.0, m_bsdf / 2.0]),
-                iteration(true, 2, 0.6, [1.0, m_bsdf / 2.0]),
+                iteration(true, 4, 1.6, [1.0, m_bsdf / 3.0]),
+                iteration(true, 2, 0.8, [1.0, m_bsdf / 3.0]),
+                iteration(true, 2, 0.8, [1.0, m_bsdf / 3.0]),
             ]
         };
-        // R = 1: the guide samples no better than the BSDF and costs 3× → fall back.
-        let c = fallback_check(&guided(2.0)).unwrap();
+        // R = 1: the guide samples no better than the BSDF and costs 4× → fall back.
+        let c = fallback_check(&guided(3.0)).unwrap();
         assert!((c.bsdf_moment_ratio - 1.0).abs() < 1e-12);
-        assert!((c.time_ratio - 3.0).abs() < 1e-12);
+        assert!((c.time_ratio - 4.0).abs() < 1e-12);
         assert!(c.fell_back);
-        // R = 1.6: T = 3 < 2R → keep guiding.
-        assert!(!fallback_check(&guided(3.2)).unwrap().fell_back);
-        // Only the last FALLBACK_GUIDED_ITERATIONS guided iterations count; unrendered ones are skipped.
-        let mut stats = guided(2.0);
+        // R = 1.6: T = 4 < 3R → keep guiding.
+        assert!(!fallback_check(&guided(4.8)).unwrap().fell_back);
+        // Every guided iteration so far counts, pooled; unrendered ones are skipped.
+        let mut stats = guided(3.0);
         stats.insert(1, iteration(true, 0, 0.0, [0.0, 0.0]));
-        stats.insert(1, iteration(true, 1, 10.0, [100.0, 1e9]));
-        assert!(fallback_check(&stats).unwrap().fell_back);
+        stats.insert(1, iteration(true, 1, 0.4, [1.0, 1e3]));
+        let pooled = fallback_check(&stats).unwrap();
+        assert!((pooled.bsdf_moment_ratio - 1003.0 / 4.0).abs() < 1e-9);
+        assert!(!pooled.fell_back);
         // No unguided first iteration, too few guided ones, or no moments: no decision.
-        assert!(fallback_check(&guided(2.0)[1..]).is_none());
-        assert!(fallback_check(&guided(2.0)[..2]).is_none());
+        assert!(fallback_check(&guided(3.0)[1..]).is_none());
+        assert!(fallback_check(&guided(3.0)[..3]).is_none());
         assert!(fallback_check(&[
             first.clone(),
+            iteration(true, 1, 1.0, [0.0, 0.0]),
             iteration(true, 1, 1.0, [0.0, 0.0]),
             iteration(true, 1, 1.0, [0.0, 0.0])
         ])
         .is_none());
+    }
+
+    #[test]
+    fn fallback_needs_consecutive_verdicts_and_a_paying_check_ends_the_checks() {
+        let check = |fell_back: bool| FallbackCheck {
+            bsdf_moment_ratio: 1.0,
+            time_ratio: 3.0,
+            fell_back,
+            checks: 1,
+        };
+        let mut state = FallbackState::default();
+        for k in 1..FALLBACK_CONFIRMATIONS {
+            state.take(check(true));
+            assert!(!state.fell_back() && !state.decided, "after {k} verdicts");
+        }
+        state.take(check(true));
+        assert!(state.fell_back() && state.decided);
+        assert_eq!(state.last.unwrap().checks, FALLBACK_CONFIRMATIONS);
+        // One check finding guiding paying, even after verdicts against it, decides for guiding.
+        let mut state = FallbackState::default();
+        state.take(check(true));
+        state.take(check(false));
+        assert!(!state.fell_back() && state.decided);
+        assert_eq!(state.last.unwrap().checks, 2);
     }
 }

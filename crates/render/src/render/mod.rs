@@ -10,6 +10,7 @@ pub mod guide_view;
 pub mod guided;
 pub mod merge;
 pub mod octree_slice;
+pub mod pixel_weights;
 pub mod reference;
 
 use crate::camera::Camera;
@@ -117,6 +118,7 @@ fn render_tile(
     first: u32,
     index_offset: u32,
     count: u32,
+    pixel_weights: Option<&[f32]>,
 ) -> TileOutput {
     let (offset, size) = tile;
     let mut blocks: Vec<ImageBlock> = films.iter().map(|f| f.create_block(offset, size)).collect();
@@ -133,7 +135,17 @@ fn render_tile(
                 let aperture = sampler.next_2d();
                 let ray = camera.generate_ray(film_pos, aperture);
                 let mut aovs = FirstHitAovs::default();
+                let recorded = segments.len();
                 let l = integrator.li(scene, ray, &mut sampler, &mut aovs, &mut segments);
+                if let Some(w) = pixel_weights {
+                    let crop = pixel - films[0].spec().crop_offset.as_ivec2();
+                    let local =
+                        crop.y as usize * films[0].spec().crop_size.x as usize + crop.x as usize;
+                    let weight = w.get(local).copied().unwrap_or(1.0);
+                    for seg in &mut segments[recorded..] {
+                        seg.pixel_weight = weight;
+                    }
+                }
                 let aov = AovSample {
                     albedo: aovs.albedo,
                     normal: aovs.normal,
@@ -160,6 +172,7 @@ pub struct PassRunner<'a> {
     spp_done: u32,
     passes: u32,
     index_offset: u32,
+    pixel_weights: Option<Vec<f32>>,
 }
 
 impl<'a> PassRunner<'a> {
@@ -195,6 +208,7 @@ impl<'a> PassRunner<'a> {
             spp_done: 0,
             passes: 0,
             index_offset: 0,
+            pixel_weights: None,
         }
     }
 
@@ -205,6 +219,12 @@ impl<'a> PassRunner<'a> {
     pub fn with_index_offset(mut self, offset: u32) -> Self {
         self.index_offset = offset;
         self
+    }
+
+    /// Training segments recorded from now on carry these per-pixel weights (crop-window pixels in row
+    /// order; see [`TrainingSegment::pixel_weight`]); `None` leaves them at 1.
+    pub fn set_pixel_weights(&mut self, weights: Option<Vec<f32>>) {
+        self.pixel_weights = weights;
     }
 
     /// Worker threads.
@@ -271,6 +291,7 @@ impl<'a> PassRunner<'a> {
             &self.settings,
             &self.tiles,
         );
+        let pixel_weights = self.pixel_weights.as_deref();
         let outputs: Vec<TileOutput> = self.pool.install(|| {
             tiles
                 .par_iter()
@@ -285,6 +306,7 @@ impl<'a> PassRunner<'a> {
                         first,
                         index_offset,
                         count,
+                        pixel_weights,
                     );
                     on_tile(tile.1.x as u64 * tile.1.y as u64 * count as u64);
                     out
