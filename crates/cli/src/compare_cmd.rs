@@ -542,7 +542,6 @@ fn run_args(
             rr: None,
             no_escaped: false,
             fallback: false,
-            no_fallback: false,
             octree_threshold: None,
             gmm_k_max: None,
             gmm_params: Vec::new(),

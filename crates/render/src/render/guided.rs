@@ -46,6 +46,8 @@ pub const FALLBACK_CONFIRMATIONS: u32 = 3;
 /// heavy-tailed terms, is more often under- than overestimated. Measured (gmm, 20 s, two runs each),
 /// T/R at the third check was 3.7–5.2 on the Cornell box, veach-mis and veach-bidir, but 2.8 once on
 /// the camera obscura, where guiding wins, and at most 2.1 on sms-ring: a margin of 2 gave up on those.
+/// With 3 it still gave up on the caustic (T/R 3.2: its R rises only after the fifth guided iteration)
+/// and on sms-ring in one of two runs each, which is why the check is opt-in.
 pub const FALLBACK_MARGIN: f64 = 3.0;
 
 /// How long a guided render runs and how it is split into iterations.
