@@ -1,21 +1,11 @@
 //! `TrainingSegment::second_moment_with_fraction`: from segments sampled with one guide fraction, the
 //! second moment another fraction would give, next-event estimation of the emission included.
 
+mod gmm_common;
+
 use focal_guiding::TrainingSegment;
 use glam::Vec3;
-
-/// A tiny deterministic generator (SplitMix64).
-struct Rng(u64);
-
-impl Rng {
-    fn uniform(&mut self) -> f64 {
-        self.0 = self.0.wrapping_add(0x9e37_79b9_7f4a_7c15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
-        ((z ^ (z >> 31)) >> 11) as f64 / (1u64 << 53) as f64
-    }
-}
+use gmm_common::Rng;
 
 /// A one-dimensional vertex on u ∈ [0, 1), like a floor point under a ceiling lamp: a light on [¼, ½)
 /// emits F = 1 and NEE samples it with density 4, the guide has learned it (density 4 there too), the
@@ -106,10 +96,10 @@ fn reweighted_moments_match_the_exact_ones_for_every_fraction() {
     let candidates = [0.0f32, 0.25, 0.5, 0.75, 0.9];
     let mut sums = [0.0f64; 5];
     for _ in 0..n {
-        let u = if rng.uniform() < alpha0 {
-            0.25 + 0.25 * rng.uniform()
+        let u = if rng.f64() < alpha0 {
+            0.25 + 0.25 * rng.f64()
         } else {
-            rng.uniform()
+            rng.f64()
         };
         let s = segment(u, alpha0);
         for (sum, &a) in sums.iter_mut().zip(&candidates) {
@@ -131,10 +121,10 @@ fn reweighted_moments_match_the_exact_ones_for_every_fraction() {
         let mut rng = Rng(7);
         (0..n)
             .map(|_| {
-                let u = if rng.uniform() < alpha0 {
-                    0.25 + 0.25 * rng.uniform()
+                let u = if rng.f64() < alpha0 {
+                    0.25 + 0.25 * rng.f64()
                 } else {
-                    rng.uniform()
+                    rng.f64()
                 };
                 let s = segment(u, alpha0);
                 let pa = a * s.guide_pdf as f64 + (1.0 - a) * s.bsdf_pdf as f64;

@@ -1,29 +1,19 @@
 //! The learned guide/BSDF selection probability: the importance-reweighted second moments choose the
 //! fraction a closed form says is best, per region, from the finest level with enough data.
 
+mod gmm_common;
+
 use focal_guiding::{
     Aabb3, GmmConfig, GmmGuide, GuidingDistribution, SelectionConfig, SelectionGrid,
     TrainingSegment, UpdateContext,
 };
 use glam::Vec3;
+use gmm_common::Rng;
 
 fn unit_box() -> Aabb3 {
     Aabb3 {
         min: Vec3::ZERO,
         max: Vec3::ONE,
-    }
-}
-
-/// A tiny deterministic generator (SplitMix64) for the synthetic segments.
-struct Rng(u64);
-
-impl Rng {
-    fn uniform(&mut self) -> f64 {
-        self.0 = self.0.wrapping_add(0x9e37_79b9_7f4a_7c15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
-        ((z ^ (z >> 31)) >> 11) as f64 / (1u64 << 53) as f64
     }
 }
 
@@ -41,10 +31,10 @@ fn segments(
     let guide_pdf = |u: f64| if u < 0.5 { 2.0 } else { 0.0 };
     (0..n)
         .filter_map(|_| {
-            let u = if rng.uniform() < alpha0 {
-                0.5 * rng.uniform()
+            let u = if rng.f64() < alpha0 {
+                0.5 * rng.f64()
             } else {
-                rng.uniform()
+                rng.f64()
             };
             let (pg, pb) = (guide_pdf(u), 1.0);
             let p0 = alpha0 * pg + (1.0 - alpha0) * pb;
@@ -229,8 +219,8 @@ fn gmm_guide_learns_and_saves_its_selection() {
     let mut batch = Vec::new();
     for _ in 0..4000 {
         let o = Vec3::new(
-            rng.uniform() as f32 * 1.6 - 0.8,
-            rng.uniform() as f32 * 1.6 - 0.8,
+            rng.f64() as f32 * 1.6 - 0.8,
+            rng.f64() as f32 * 1.6 - 0.8,
             -0.9,
         );
         batch.push(TrainingSegment {
