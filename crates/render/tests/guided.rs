@@ -341,3 +341,113 @@ fn guided_paths_pass_through_masks_without_bias() {
         }
     }
 }
+
+/// A guide that passes everything to a real one and keeps the segments it is given, per iteration.
+struct RecordingGuide {
+    inner: Box<dyn GuidingDistribution>,
+    iteration: u32,
+    seen: Vec<(u32, focal_render::guiding::TrainingSegment)>,
+}
+
+impl GuidingDistribution for RecordingGuide {
+    fn name(&self) -> &'static str {
+        "recording"
+    }
+    fn sample(
+        &self,
+        x: glam::Vec3,
+        n: Option<glam::Vec3>,
+        u: [f32; 3],
+    ) -> Option<focal_render::guiding::GuideSample> {
+        self.inner.sample(x, n, u)
+    }
+    fn pdf(&self, x: glam::Vec3, n: Option<glam::Vec3>, d: glam::Vec3) -> f32 {
+        self.inner.pdf(x, n, d)
+    }
+    fn prepare(
+        &self,
+        x: glam::Vec3,
+        n: Option<glam::Vec3>,
+        v: &mut focal_render::guiding::GuideVertex,
+    ) {
+        self.inner.prepare(x, n, v)
+    }
+    fn sample_at(
+        &self,
+        v: &focal_render::guiding::GuideVertex,
+        u: [f32; 3],
+    ) -> Option<focal_render::guiding::GuideSample> {
+        self.inner.sample_at(v, u)
+    }
+    fn pdf_at(&self, v: &focal_render::guiding::GuideVertex, d: glam::Vec3) -> f32 {
+        self.inner.pdf_at(v, d)
+    }
+    fn selection_probability(&self, x: glam::Vec3) -> Option<f32> {
+        self.inner.selection_probability(x)
+    }
+    fn record(&mut self, segments: &[focal_render::guiding::TrainingSegment]) {
+        self.seen
+            .extend(segments.iter().map(|s| (self.iteration, *s)));
+        self.inner.record(segments)
+    }
+    fn update(
+        &mut self,
+        ctx: &focal_render::guiding::UpdateContext,
+    ) -> focal_render::guiding::UpdateStats {
+        self.iteration += 1;
+        self.inner.update(ctx)
+    }
+    fn save(&self) -> Vec<u8> {
+        self.inner.save()
+    }
+}
+
+/// The segments a guided render hands its guide carry what the second-moment estimates need: the
+/// emission found at the endpoint (part of the contribution, with NEE's pdf of it: the Cornell box's
+/// lamp is hit directly), and, from the first guided iteration on, per-pixel weights in (0, 1] that
+/// tell dark pixels from bright ones.
+#[test]
+fn training_segments_carry_emission_and_pixel_weights() {
+    let scene = load(&reference_scene("cbox"), &[("res", "32")]);
+    let mut guide = RecordingGuide {
+        inner: guide_for(GuidingMethod::Gmm, &scene),
+        iteration: 0,
+        seen: Vec::new(),
+    };
+    let s = guided_settings(16, 5, 0, Combine::InverseVariance);
+    let out = render_with(&scene, Some(&mut guide), &s);
+    assert!(all_finite(&out.image));
+    let seen = &guide.seen;
+    let emitting: Vec<_> = seen.iter().filter(|(_, s)| s.emitted > 0.0).collect();
+    // The lamp covers a small solid angle: about 1 % of the segments hit it.
+    assert!(
+        emitting.len() >= 50 && emitting.len() * 500 > seen.len(),
+        "{} of {} segments found emission",
+        emitting.len(),
+        seen.len()
+    );
+    for (_, s) in &emitting {
+        assert!(s.emitter_pdf > 0.0, "{s:?}");
+        // c is a difference of the path's running sums, so it carries their f32 rounding.
+        assert!(s.emitted <= s.weight * 1.001, "{s:?}");
+    }
+    assert!(seen
+        .iter()
+        .all(|(_, s)| s.emitted > 0.0 || s.emitter_pdf == 0.0));
+    let first: Vec<f32> = seen
+        .iter()
+        .filter(|(i, _)| *i == 0)
+        .map(|(_, s)| s.pixel_weight)
+        .collect();
+    assert!(!first.is_empty() && first.iter().all(|&w| w == 1.0));
+    let later: Vec<f32> = seen
+        .iter()
+        .filter(|(i, _)| *i > 0)
+        .map(|(_, s)| s.pixel_weight)
+        .collect();
+    assert!(later.iter().all(|&w| w > 0.0 && w <= 1.0));
+    let (lo, hi) = later
+        .iter()
+        .fold((f32::MAX, 0.0f32), |(a, b), &w| (a.min(w), b.max(w)));
+    assert!(lo < 0.5 && hi > 0.7, "pixel weights span [{lo}, {hi}]");
+}
