@@ -128,6 +128,7 @@ fn render_tile(
         for px in 0..size.x as i32 {
             let pixel = offset + IVec2::new(px, py);
             let pixel_index = pixel.y as u64 * width + pixel.x as u64;
+            let recorded = segments.len();
             for s in first..first + count {
                 let index = s.wrapping_add(index_offset);
                 let mut sampler = Sampler::new(settings.sampler, settings.seed, pixel_index, index);
@@ -135,17 +136,7 @@ fn render_tile(
                 let aperture = sampler.next_2d();
                 let ray = camera.generate_ray(film_pos, aperture);
                 let mut aovs = FirstHitAovs::default();
-                let recorded = segments.len();
                 let l = integrator.li(scene, ray, &mut sampler, &mut aovs, &mut segments);
-                if let Some(w) = pixel_weights {
-                    let crop = pixel - films[0].spec().crop_offset.as_ivec2();
-                    let local =
-                        crop.y as usize * films[0].spec().crop_size.x as usize + crop.x as usize;
-                    let weight = w.get(local).copied().unwrap_or(1.0);
-                    for seg in &mut segments[recorded..] {
-                        seg.pixel_weight = weight;
-                    }
-                }
                 let aov = AovSample {
                     albedo: aovs.albedo,
                     normal: aovs.normal,
@@ -153,6 +144,16 @@ fn render_tile(
                 };
                 let half = s as usize % blocks.len();
                 blocks[half].put(film_pos, l, settings.aovs.then_some(&aov));
+            }
+            // All of this pixel's samples share its weight: set once, after them.
+            if let Some(w) = pixel_weights {
+                let crop = pixel - films[0].spec().crop_offset.as_ivec2();
+                let local =
+                    crop.y as usize * films[0].spec().crop_size.x as usize + crop.x as usize;
+                let weight = w.get(local).copied().unwrap_or(1.0);
+                for seg in &mut segments[recorded..] {
+                    seg.pixel_weight = weight;
+                }
             }
         }
     }
