@@ -154,6 +154,9 @@ pub struct GuideVertex {
     pub scalars: [f64; 4],
     /// A buffer the implementation keeps here.
     pub buffer: Vec<f64>,
+    /// A single-precision buffer the implementation keeps here (the GMM's per-component terms of its
+    /// `f32` pdf kernel).
+    pub buffer32: Vec<f32>,
 }
 
 /// A learned spatial density used to guide path directions.

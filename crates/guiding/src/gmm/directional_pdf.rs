@@ -11,6 +11,7 @@ use glam::DVec3;
 
 use super::gaussian::Gaussian3;
 use super::special::{exp_fast, half_line_h_branchless, norm_interval_fast, SQRT_2PI};
+use super::special32::{exp_f32, half_line_h_f32, EXP_F32_MIN, SQRT_2PI_F32};
 
 /// A 3D Gaussian restricted to the line x + tω: exp(`log_peak` − (t − `m`)²/(2`s`²)).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -116,5 +117,41 @@ pub(crate) fn half_line_kernel(d: [f64; 3], l: [f64; 6], w: DVec3) -> f64 {
         0.0
     } else {
         s3 * gaussian * g
+    }
+}
+
+/// [`half_line_kernel`] in `f32` for the renderer's hot loop, given the whitened offset zd = L⁻¹(μ − x)
+/// and ½|zd|² computed in `f64` once per shading point, the rows of L⁻¹ and the unit direction `w`.
+///
+/// The squared distance of the mean from the line is |zd × zw|²/|zw|² rather than c − α², which in
+/// `f32` would cancel catastrophically for small, distant components (|zd| ~ 1e3). What remains is the
+/// rounding of zd and ω to `f32`: a relative pdf error of about 6e-8·|zd|·√perp, the same order as the
+/// pdf's own change when ω moves by one `f32` ulp. Returns 0 where the Gaussian factor is below e^−87.
+#[inline(always)]
+pub(crate) fn half_line_kernel_f32(zd: [f32; 3], half_c: f32, l: [f32; 6], w: [f32; 3]) -> f32 {
+    let zw0 = l[0] * w[0];
+    let zw1 = l[1].mul_add(w[0], l[2] * w[1]);
+    let zw2 = l[3].mul_add(w[0], l[4].mul_add(w[1], l[5] * w[2]));
+    let a = zw0.mul_add(zw0, zw1.mul_add(zw1, zw2 * zw2));
+    let b = zw0.mul_add(zd[0], zw1.mul_add(zd[1], zw2 * zd[2]));
+    let inv_sqrt_a = 1.0 / a.sqrt();
+    let inv_a = inv_sqrt_a * inv_sqrt_a;
+    let alpha = b * inv_sqrt_a;
+    let x0 = zd[1].mul_add(zw2, -(zd[2] * zw1));
+    let x1 = zd[2].mul_add(zw0, -(zd[0] * zw2));
+    let x2 = zd[0].mul_add(zw1, -(zd[1] * zw0));
+    let half_perp = 0.5 * x0.mul_add(x0, x1.mul_add(x1, x2 * x2)) * inv_a;
+    let s3 = inv_a * inv_sqrt_a;
+    let h = half_line_h_f32(alpha.abs());
+    let away = alpha <= 0.0;
+    let exponent = if away { half_c } else { half_perp };
+    let toward = SQRT_2PI_F32 * alpha.mul_add(alpha, 1.0) - exp_f32(-0.5 * alpha * alpha) * h;
+    let g = if away { h } else { toward };
+    let value = s3 * exp_f32(-exponent) * g;
+    // `!(≤)` also rejects a NaN exponent (an overflowed distance), whose value would be NaN.
+    if !(exponent <= -EXP_F32_MIN) {
+        0.0
+    } else {
+        value
     }
 }

@@ -13,7 +13,7 @@ use serde::{Deserialize, Serialize};
 
 use super::em::{fit, FitParams, FitReport, SuffStats};
 use super::gaussian::Gaussian3;
-use super::mixture::{Mixture, MAX_COMPONENTS};
+use super::mixture::{Mixture, MAX_COMPONENTS, TERMS_PER_COMPONENT};
 use super::rays::{
     clip_to_box, generate_points, mix64, NarrowingTable, PointSampling, TrainingRay,
 };
@@ -361,26 +361,70 @@ impl GmmGuide {
         p
     }
 
+    /// The untruncated pdf of unit `w` from the shading point whose kernel terms
+    /// ([`GmmGuide::prepare_terms`]) are `terms`: the renderer's `f32` kernel.
+    #[inline]
+    fn full_pdf_prepared(&self, terms: &[f32], w: DVec3) -> f64 {
+        let q = self.p_div;
+        let wf = [w.x as f32, w.y as f32, w.z as f32];
+        let (conv, div) = terms.split_at(TERMS_PER_COMPONENT * MAX_COMPONENTS);
+        let mut p = 0.0;
+        if q < 1.0 {
+            p += (1.0 - q) * self.conv.mixture.directional_pdf_prepared(conv, wf) as f64;
+        }
+        if q > 0.0 {
+            let back = [-wf[0], -wf[1], -wf[2]];
+            p += q * self.div.mixture.directional_pdf_prepared(div, back) as f64;
+        }
+        p
+    }
+
+    /// Fills `terms` (converging mixture first, then diverging, [`TERMS_PER_COMPONENT`] ×
+    /// [`MAX_COMPONENTS`] values each) with the per-component terms of the `f32` kernel at unit-frame
+    /// `x`.
+    #[inline]
+    fn prepare_terms(&self, x: DVec3, terms: &mut Vec<f32>) {
+        let block = TERMS_PER_COMPONENT * MAX_COMPONENTS;
+        terms.resize(2 * block, 0.0);
+        let (conv, div) = terms.split_at_mut(block);
+        if self.p_div < 1.0 {
+            self.conv.mixture.prepare_terms(x, conv);
+        }
+        if self.p_div > 0.0 {
+            self.div.mixture.prepare_terms(x, div);
+        }
+    }
+
     /// Fills `masses` with every component's share π_kΦ_k (converging, first half) or π_k(1 − Φ_k)
     /// (diverging, second half) of the hemisphere above (x, n), and returns
-    /// Z = (1 − p_div)·Σ_conv + p_div·Σ_div.
+    /// Z = (1 − p_div)·Σ_conv + p_div·Σ_div; with `fast`, Φ in `f32` as the renderer's kernel (else the
+    /// `f64` reference).
     #[inline]
-    fn hemisphere_masses(&self, x: DVec3, n: DVec3, masses: &mut [f64]) -> f64 {
+    fn hemisphere_masses(&self, x: DVec3, n: DVec3, masses: &mut [f64], fast: bool) -> f64 {
         let q = self.p_div;
         let (conv, div) = masses.split_at_mut(MAX_COMPONENTS);
+        let masses_of = |m: &Mixture, upper: bool, out: &mut [f64]| {
+            if fast {
+                m.half_space_masses_fast(x, n, upper, out)
+            } else {
+                m.half_space_masses(x, n, upper, out)
+            }
+        };
         let mut z = 0.0;
         if q < 1.0 {
-            self.conv.mixture.half_space_masses(x, n, true, conv);
+            masses_of(&self.conv.mixture, true, conv);
             z += (1.0 - q) * conv[..self.conv.mixture.len()].iter().sum::<f64>();
         }
         if q > 0.0 {
-            self.div.mixture.half_space_masses(x, n, false, div);
+            masses_of(&self.div.mixture, false, div);
             z += q * div[..self.div.mixture.len()].iter().sum::<f64>();
         }
         z
     }
 
-    /// The pdf in `f64` (what [`GuidingDistribution::pdf`] rounds to `f32`).
+    /// The pdf from the `f64` reference kernel ([`Mixture::directional_pdf`]), which the renderer's
+    /// `f32` kernel behind [`GuidingDistribution::pdf`] approximates to about 1e-6 relative. For tests
+    /// and tools that check the formula itself.
     pub fn pdf_f64(&self, x: Vec3, normal: Option<Vec3>, d: Vec3) -> f64 {
         if !self.is_trained() {
             return 0.0;
@@ -388,16 +432,24 @@ impl GmmGuide {
         let xu = self.to_unit(x);
         let n = normal.and_then(|n| unit(n.as_dvec3()));
         let z = match n {
-            Some(n) => self.hemisphere_masses(xu, n, &mut [0.0; 2 * MAX_COMPONENTS]),
+            Some(n) => self.hemisphere_masses(xu, n, &mut [0.0; 2 * MAX_COMPONENTS], false),
             None => 1.0,
         };
-        self.pdf_given(xu, n, d, z)
+        self.pdf_given(xu, n, d, z, |w| self.full_pdf(xu, w))
     }
 
-    /// The pdf at `d` from unit-frame `xu`, given the hemisphere mass `z` of the unit normal `n` (the
-    /// one computation `pdf` and `sample` share, so their values agree bit for bit).
+    /// The pdf at `d` from unit-frame `xu`, given the hemisphere mass `z` of the unit normal `n` and the
+    /// untruncated pdf `full` of a unit direction (the one computation `pdf` and `sample` share, so their
+    /// values agree bit for bit).
     #[inline]
-    fn pdf_given(&self, xu: DVec3, n: Option<DVec3>, d: Vec3, z: f64) -> f64 {
+    fn pdf_given(
+        &self,
+        xu: DVec3,
+        n: Option<DVec3>,
+        d: Vec3,
+        z: f64,
+        full: impl Fn(DVec3) -> f64,
+    ) -> f64 {
         let Some(w) = unit(d.as_dvec3()) else {
             return 0.0;
         };
@@ -405,12 +457,12 @@ impl GmmGuide {
             return 0.0;
         }
         match n {
-            None => self.full_pdf(xu, w),
+            None => full(w),
             Some(n) => {
                 if !(n.dot(w) > 0.0) || !(z >= MIN_HEMISPHERE_MASS) {
                     return 0.0;
                 }
-                self.full_pdf(xu, w) / z
+                full(w) / z
             }
         }
     }
@@ -485,6 +537,7 @@ impl GmmGuide {
     /// Rounds a unit-frame direction to the `f32` sample and attaches its exact pdf.
     fn finish_sample(
         &self,
+        vertex: &GuideVertex,
         xu: DVec3,
         n: Option<DVec3>,
         dir: DVec3,
@@ -494,8 +547,10 @@ impl GmmGuide {
         if direction == Vec3::ZERO {
             return None;
         }
-        // Exactly `pdf(x, normal, direction)`, reusing the hemisphere mass.
-        let pdf = self.pdf_given(xu, n, direction, z) as f32;
+        // Exactly `pdf(x, normal, direction)`, reusing the hemisphere mass and the kernel terms.
+        let pdf = self.pdf_given(xu, n, direction, z, |w| {
+            self.full_pdf_prepared(&vertex.buffer32, w)
+        }) as f32;
         (pdf > 0.0 && pdf.is_finite()).then_some(GuideSample { direction, pdf })
     }
 
@@ -632,16 +687,15 @@ impl GuidingDistribution for GmmGuide {
         self.sample_at(&vertex, u)
     }
 
+    /// The `f32` kernel's pdf (see [`GmmGuide::pdf_f64`] for the `f64` reference).
     fn pdf(&self, x: Vec3, normal: Option<Vec3>, d: Vec3) -> f32 {
-        let p = self.pdf_f64(x, normal, d) as f32;
-        if p.is_finite() {
-            p
-        } else {
-            0.0
-        }
+        let mut vertex = GuideVertex::default();
+        self.prepare(x, normal, &mut vertex);
+        self.pdf_at(&vertex, d)
     }
 
-    /// Computes the unit-frame point and, with a normal, every component's hemisphere mass once.
+    /// Computes the unit-frame point, every component's kernel terms and, with a normal, every
+    /// component's hemisphere mass once.
     fn prepare(&self, x: Vec3, normal: Option<Vec3>, vertex: &mut GuideVertex) {
         vertex.x = x;
         vertex.normal = normal;
@@ -650,9 +704,10 @@ impl GuidingDistribution for GmmGuide {
         if !self.is_trained() || !xu.is_finite() {
             return;
         }
+        self.prepare_terms(xu, &mut vertex.buffer32);
         if let Some(n) = normal.and_then(|n| unit(n.as_dvec3())) {
             vertex.buffer.resize(2 * MAX_COMPONENTS, 0.0);
-            vertex.scalars[3] = self.hemisphere_masses(xu, n, &mut vertex.buffer);
+            vertex.scalars[3] = self.hemisphere_masses(xu, n, &mut vertex.buffer, true);
         }
     }
 
@@ -670,7 +725,7 @@ impl GuidingDistribution for GmmGuide {
             None => self.sample_sphere(xu, u)?,
             Some(n) => self.sample_hemisphere(xu, n, &vertex.buffer, z, u)?,
         };
-        self.finish_sample(xu, n, dir, z)
+        self.finish_sample(vertex, xu, n, dir, z)
     }
 
     fn selection_probability(&self, x: Vec3) -> Option<f32> {
@@ -686,7 +741,9 @@ impl GuidingDistribution for GmmGuide {
         }
         let [ux, uy, uz, z] = vertex.scalars;
         let n = vertex.normal.and_then(|n| unit(n.as_dvec3()));
-        let p = self.pdf_given(DVec3::new(ux, uy, uz), n, d, z) as f32;
+        let p = self.pdf_given(DVec3::new(ux, uy, uz), n, d, z, |w| {
+            self.full_pdf_prepared(&vertex.buffer32, w)
+        }) as f32;
         if p.is_finite() {
             p
         } else {

@@ -3,12 +3,17 @@
 
 use glam::DVec3;
 
-use super::directional_pdf::half_line_kernel;
+use super::directional_pdf::{half_line_kernel, half_line_kernel_f32};
 use super::gaussian::Gaussian3;
 use super::special::{inv_norm_cdf, norm_cdf_branchless, open_unit};
+use super::special32::norm_cdf_f32;
 
 /// Most components one mixture may hold (bounds the stack buffers of the sampling and E-step loops).
 pub const MAX_COMPONENTS: usize = 128;
+/// Lanes of the component loops: arrays are padded to a multiple of it with inert components.
+const LANES: usize = 8;
+/// `f32` values per component that [`Mixture::prepare_terms`] writes for a shading point.
+pub const TERMS_PER_COMPONENT: usize = 4;
 /// Tolerance on Σπ = 1 for mixtures whose weights are taken as given (snapshots, M-step output).
 const WEIGHT_SUM_TOLERANCE: f64 = 1e-9;
 
@@ -22,7 +27,7 @@ pub struct Mixture {
 }
 
 /// Structure-of-arrays copies of the components for the vectorised pdf and hemisphere-mass loops,
-/// padded to a multiple of four with inert components of coefficient 0.
+/// padded to a multiple of [`LANES`] with inert components of coefficient 0.
 #[derive(Clone, Debug, Default, PartialEq)]
 struct Soa {
     /// π_k N₀_k.
@@ -32,11 +37,17 @@ struct Soa {
     mean: [Vec<f64>; 3],
     inv_chol: [Vec<f64>; 6],
     chol: [Vec<f64>; 6],
+    /// π_k N₀_k in `f32`, for the renderer's kernel.
+    coef32: Vec<f32>,
+    /// The rows of L⁻¹ in `f32`, for the renderer's kernel.
+    inv_chol32: [Vec<f32>; 6],
+    /// The rows of L in `f32`, for the hemisphere masses.
+    chol32: [Vec<f32>; 6],
 }
 
 impl Soa {
     fn new(weights: &[f64], components: &[Gaussian3]) -> Self {
-        let padded = components.len().div_ceil(4) * 4;
+        let padded = components.len().div_ceil(LANES) * LANES;
         let column = |f: &dyn Fn(&Gaussian3) -> f64, fill: f64| {
             let mut v: Vec<f64> = components.iter().map(f).collect();
             v.resize(padded, fill);
@@ -51,12 +62,20 @@ impl Soa {
         coef.resize(padded, 0.0);
         let mut weight = weights.to_vec();
         weight.resize(padded, 0.0);
+        let inv_chol: [Vec<f64>; 6] =
+            std::array::from_fn(|i| column(&|g| g.inverse_cholesky().0[i], identity[i]));
+        let to_f32 = |v: &Vec<f64>| v.iter().map(|x| *x as f32).collect::<Vec<f32>>();
+        let chol: [Vec<f64>; 6] =
+            std::array::from_fn(|i| column(&|g| g.cholesky().0[i], identity[i]));
         Self {
+            chol32: std::array::from_fn(|i| to_f32(&chol[i])),
+            coef32: to_f32(&coef),
+            inv_chol32: std::array::from_fn(|i| to_f32(&inv_chol[i])),
             coef,
             weight,
             mean: std::array::from_fn(|a| column(&|g| g.mean()[a], 0.0)),
-            inv_chol: std::array::from_fn(|i| column(&|g| g.inverse_cholesky().0[i], identity[i])),
-            chol: std::array::from_fn(|i| column(&|g| g.cholesky().0[i], identity[i])),
+            inv_chol,
+            chol,
         }
     }
 }
@@ -165,6 +184,7 @@ impl Mixture {
             values[k] = coef[k] * half_line_kernel(d, l, omega);
         }
         let mut lanes = [0.0f64; 4];
+        // Padded to eight, so also to four.
         for block in values.chunks_exact(4) {
             for (acc, v) in lanes.iter_mut().zip(block) {
                 *acc += v;
@@ -173,8 +193,76 @@ impl Mixture {
         (lanes[0] + lanes[1]) + (lanes[2] + lanes[3])
     }
 
-    /// Writes π_k·P_k(n·(y − x) > 0) (or < 0 if `upper` is false) for every component into `out`
-    /// (vectorised; `out` needs [`Mixture::len`] rounded up to a multiple of four entries).
+    /// The component count rounded up to the loops' lane count: the length of the per-component
+    /// buffers that [`Mixture::half_space_masses`] and [`Mixture::prepare_terms`] fill.
+    pub fn padded_len(&self) -> usize {
+        self.soa.coef.len()
+    }
+
+    /// Writes what the renderer's pdf kernel needs of shading point `x` for every component, computed
+    /// in `f64` and stored in `f32`: the whitened offset zd = L⁻¹(μ − x) and ½|zd|², as four blocks of
+    /// [`Mixture::padded_len`] values in `terms` (which needs [`TERMS_PER_COMPONENT`] times that).
+    #[inline]
+    pub fn prepare_terms(&self, x: DVec3, terms: &mut [f32]) {
+        let s = &self.soa;
+        let n = s.coef.len();
+        let (zd0, rest) = terms[..TERMS_PER_COMPONENT * n].split_at_mut(n);
+        let (zd1, rest) = rest.split_at_mut(n);
+        let (zd2, half_c) = rest.split_at_mut(n);
+        let (mx, my, mz) = (&s.mean[0][..n], &s.mean[1][..n], &s.mean[2][..n]);
+        let [l0, l1, l2, l3, l4, l5] = &s.inv_chol;
+        let (l0, l1, l2, l3, l4, l5) = (&l0[..n], &l1[..n], &l2[..n], &l3[..n], &l4[..n], &l5[..n]);
+        for k in 0..n {
+            let d = [mx[k] - x.x, my[k] - x.y, mz[k] - x.z];
+            let z0 = l0[k] * d[0];
+            let z1 = l1[k].mul_add(d[0], l2[k] * d[1]);
+            let z2 = l3[k].mul_add(d[0], l4[k].mul_add(d[1], l5[k] * d[2]));
+            zd0[k] = z0 as f32;
+            zd1[k] = z1 as f32;
+            zd2[k] = z2 as f32;
+            half_c[k] = (0.5 * z0.mul_add(z0, z1.mul_add(z1, z2 * z2))) as f32;
+        }
+    }
+
+    /// The renderer's directional pdf (see [`Mixture::directional_pdf`], the `f64` reference it
+    /// agrees with to about 1e-6 relative; see `half_line_kernel_f32` for the bound) at unit `omega`
+    /// from the shading point whose [`Mixture::prepare_terms`] are `terms`: `f32` eight lanes wide, summed
+    /// in eight fixed lanes.
+    #[inline]
+    pub fn directional_pdf_prepared(&self, terms: &[f32], omega: [f32; 3]) -> f32 {
+        let s = &self.soa;
+        let n = s.coef.len();
+        let (zd0, rest) = terms[..TERMS_PER_COMPONENT * n].split_at(n);
+        let (zd1, rest) = rest.split_at(n);
+        let (zd2, half_c) = rest.split_at(n);
+        let [l0, l1, l2, l3, l4, l5] = &s.inv_chol32;
+        let (l0, l1, l2, l3, l4, l5) = (&l0[..n], &l1[..n], &l2[..n], &l3[..n], &l4[..n], &l5[..n]);
+        let (zd0, zd1, zd2, half_c) = (&zd0[..n], &zd1[..n], &zd2[..n], &half_c[..n]);
+        let coef = &s.coef32[..n];
+        let mut values = [0.0f32; MAX_COMPONENTS];
+        let values = &mut values[..n];
+        for k in 0..n {
+            values[k] = coef[k]
+                * half_line_kernel_f32(
+                    [zd0[k], zd1[k], zd2[k]],
+                    half_c[k],
+                    [l0[k], l1[k], l2[k], l3[k], l4[k], l5[k]],
+                    omega,
+                );
+        }
+        let mut lanes = [0.0f32; LANES];
+        for block in values.chunks_exact(LANES) {
+            for (acc, v) in lanes.iter_mut().zip(block) {
+                *acc += v;
+            }
+        }
+        ((lanes[0] + lanes[1]) + (lanes[2] + lanes[3]))
+            + ((lanes[4] + lanes[5]) + (lanes[6] + lanes[7]))
+    }
+
+    /// Writes π_k·P_k(n·(y − x) > 0) (or < 0 if `upper` is false) for every component into `out`, all in
+    /// `f64` (the reference for [`Mixture::half_space_masses_fast`]; `out` needs
+    /// [`Mixture::padded_len`] entries).
     #[inline]
     pub fn half_space_masses(&self, x: DVec3, n: DVec3, upper: bool, out: &mut [f64]) {
         let s = &self.soa;
@@ -194,6 +282,43 @@ impl Mixture {
             let t2 = c5[k] * n.z;
             let sigma = (t0 * t0 + t1 * t1 + t2 * t2).sqrt();
             out[k] = weights[k] * norm_cdf_branchless(sign * delta / sigma);
+        }
+    }
+
+    /// [`Mixture::half_space_masses`] for the renderer: the offset along n in `f64`, the rest (Φ to
+    /// about 3e-7 relative) in `f32` eight lanes wide.
+    #[inline]
+    pub fn half_space_masses_fast(&self, x: DVec3, n: DVec3, upper: bool, out: &mut [f64]) {
+        let s = &self.soa;
+        let len = s.coef.len();
+        let out = &mut out[..len];
+        let (mx, my, mz) = (&s.mean[0][..len], &s.mean[1][..len], &s.mean[2][..len]);
+        let [c0, c1, c2, c3, c4, c5] = &s.chol32;
+        let (c0, c1, c2) = (&c0[..len], &c1[..len], &c2[..len]);
+        let (c3, c4, c5) = (&c3[..len], &c4[..len], &c5[..len]);
+        let weights = &s.weight[..len];
+        let sign = if upper { 1.0 } else { -1.0 };
+        // The offset along n in f64 (it is a small difference of coordinates), the rest in f32 eight
+        // lanes wide: three loops that each vectorise.
+        let mut delta = [0.0f32; MAX_COMPONENTS];
+        let delta = &mut delta[..len];
+        for k in 0..len {
+            let d = n.x * (mx[k] - x.x) + n.y * (my[k] - x.y) + n.z * (mz[k] - x.z);
+            delta[k] = (sign * d) as f32;
+        }
+        let nf = n.as_vec3();
+        let mut cdf = [0.0f32; MAX_COMPONENTS];
+        let cdf = &mut cdf[..len];
+        for k in 0..len {
+            // |Lᵀn| = √(nᵀΣn).
+            let t0 = c0[k].mul_add(nf.x, c1[k].mul_add(nf.y, c3[k] * nf.z));
+            let t1 = c2[k].mul_add(nf.y, c4[k] * nf.z);
+            let t2 = c5[k] * nf.z;
+            let sigma = t0.mul_add(t0, t1.mul_add(t1, t2 * t2)).sqrt();
+            cdf[k] = norm_cdf_f32(delta[k] / sigma);
+        }
+        for k in 0..len {
+            out[k] = weights[k] * cdf[k] as f64;
         }
     }
 

@@ -4,7 +4,8 @@
 //! - [`GmmGuide`] is the guide: converging and diverging mixtures, exact directional pdf, hemisphere
 //!   truncation, training from recorded segments by stepwise weighted MAP-EM;
 //! - [`Gaussian3`], [`Mixture`], [`LineGaussian`]: the density and its restriction to a line;
-//! - [`special`] (erfc, erfcx, Φ⁻¹), [`truncated`] (truncated normal and half-space sampling),
+//! - [`special`] (erfc, erfcx, Φ⁻¹), [`special32`] (the renderer kernel's `f32` e^x, H and Φ),
+//!   [`truncated`] (truncated normal and half-space sampling),
 //!   [`em`] (the fit) and [`rays`] (training rays and points) are public so tests and tools can check
 //!   each piece on its own.
 
@@ -15,6 +16,7 @@ mod guide;
 mod mixture;
 pub mod rays;
 pub mod special;
+pub mod special32;
 mod sym3;
 pub mod truncated;
 
