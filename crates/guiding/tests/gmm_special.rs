@@ -8,8 +8,8 @@ mod gmm_common;
 
 use focal_guiding::gmm::special::{
     erf, erfc, erfcx, exp_fast, half_line_h, half_line_h_branchless, half_line_t2_moment,
-    half_line_t2_moment_scaled, inv_norm_cdf, mills_ratio, norm_cdf, norm_cdf_branchless,
-    norm_cdf_fast, norm_interval, norm_sf,
+    half_line_t2_moment_scaled, inv_norm_cdf, inv_norm_cdf_approx, mills_ratio, norm_cdf,
+    norm_cdf_branchless, norm_cdf_fast, norm_interval, norm_sf,
 };
 use focal_guiding::gmm::truncated::truncated_std_normal;
 use focal_guiding::gmm::{Gaussian3, Sym3};
@@ -210,6 +210,27 @@ fn inverse_normal_cdf_matches_references_and_round_trips() {
     }
     assert_eq!(inv_norm_cdf(0.5), 0.0);
     assert!(inv_norm_cdf(0.0) == f64::NEG_INFINITY && inv_norm_cdf(1.0) == f64::INFINITY);
+}
+
+#[test]
+fn unrefined_inverse_normal_cdf_is_within_acklams_bound() {
+    // From 2⁻⁵³ (the smallest `open_unit` value) to 1 − 2⁻⁵³, densest in the tails.
+    let mut worst = 0.0f64;
+    for i in 0..=4000 {
+        let t = i as f64 / 4000.0;
+        let p = 2f64.powf(-53.0 * (1.0 - t)) * 0.5;
+        for p in [p, 1.0 - p] {
+            let (fast, exact) = (inv_norm_cdf_approx(p), inv_norm_cdf(p));
+            if exact != 0.0 {
+                worst = worst.max(rel_err(fast, exact));
+            }
+        }
+    }
+    assert!(worst < 1.2e-9, "worst relative error {worst:e}");
+    assert_eq!(inv_norm_cdf_approx(0.5), 0.0);
+    assert!(inv_norm_cdf_approx(0.0) == f64::NEG_INFINITY);
+    assert!(inv_norm_cdf_approx(1.0) == f64::INFINITY);
+    assert!(inv_norm_cdf_approx(f64::NAN).is_nan());
 }
 
 #[test]

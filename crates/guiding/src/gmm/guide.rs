@@ -362,7 +362,7 @@ impl GmmGuide {
     }
 
     /// The untruncated pdf of unit `w` from the shading point whose kernel terms
-    /// ([`GmmGuide::prepare_terms`]) are `terms`: the renderer's `f32` kernel.
+    /// ([`GmmGuide::prepare_kernel`]) are `terms`: the renderer's `f32` kernel.
     #[inline]
     fn full_pdf_prepared(&self, terms: &[f32], w: DVec3) -> f64 {
         let q = self.p_div;
@@ -381,42 +381,54 @@ impl GmmGuide {
 
     /// Fills `terms` (converging mixture first, then diverging, [`TERMS_PER_COMPONENT`] ×
     /// [`MAX_COMPONENTS`] values each) with the per-component terms of the `f32` kernel at unit-frame
-    /// `x`.
+    /// `x` and, with a unit normal `n`, `masses` as [`GmmGuide::hemisphere_masses`] does (Φ in `f32`),
+    /// returning Z (1 without a normal).
     #[inline]
-    fn prepare_terms(&self, x: DVec3, terms: &mut Vec<f32>) {
+    fn prepare_kernel(
+        &self,
+        x: DVec3,
+        n: Option<DVec3>,
+        terms: &mut Vec<f32>,
+        masses: &mut Vec<f64>,
+    ) -> f64 {
         let block = TERMS_PER_COMPONENT * MAX_COMPONENTS;
         terms.resize(2 * block, 0.0);
-        let (conv, div) = terms.split_at_mut(block);
-        if self.p_div < 1.0 {
-            self.conv.mixture.prepare_terms(x, conv);
+        masses.resize(2 * MAX_COMPONENTS, 0.0);
+        let (conv_terms, div_terms) = terms.split_at_mut(block);
+        let (conv_masses, div_masses) = masses.split_at_mut(MAX_COMPONENTS);
+        let q = self.p_div;
+        let mut z = 0.0;
+        if q < 1.0 {
+            let m = &self.conv.mixture;
+            m.prepare_vertex(x, n.map(|n| (n, true)), conv_terms, conv_masses);
+            z += (1.0 - q) * conv_masses[..m.len()].iter().sum::<f64>();
         }
-        if self.p_div > 0.0 {
-            self.div.mixture.prepare_terms(x, div);
+        if q > 0.0 {
+            let m = &self.div.mixture;
+            m.prepare_vertex(x, n.map(|n| (n, false)), div_terms, div_masses);
+            z += q * div_masses[..m.len()].iter().sum::<f64>();
+        }
+        if n.is_some() {
+            z
+        } else {
+            1.0
         }
     }
 
     /// Fills `masses` with every component's share π_kΦ_k (converging, first half) or π_k(1 − Φ_k)
     /// (diverging, second half) of the hemisphere above (x, n), and returns
-    /// Z = (1 − p_div)·Σ_conv + p_div·Σ_div; with `fast`, Φ in `f32` as the renderer's kernel (else the
-    /// `f64` reference).
+    /// Z = (1 − p_div)·Σ_conv + p_div·Σ_div (the `f64` reference).
     #[inline]
-    fn hemisphere_masses(&self, x: DVec3, n: DVec3, masses: &mut [f64], fast: bool) -> f64 {
+    fn hemisphere_masses(&self, x: DVec3, n: DVec3, masses: &mut [f64]) -> f64 {
         let q = self.p_div;
         let (conv, div) = masses.split_at_mut(MAX_COMPONENTS);
-        let masses_of = |m: &Mixture, upper: bool, out: &mut [f64]| {
-            if fast {
-                m.half_space_masses_fast(x, n, upper, out)
-            } else {
-                m.half_space_masses(x, n, upper, out)
-            }
-        };
         let mut z = 0.0;
         if q < 1.0 {
-            masses_of(&self.conv.mixture, true, conv);
+            self.conv.mixture.half_space_masses(x, n, true, conv);
             z += (1.0 - q) * conv[..self.conv.mixture.len()].iter().sum::<f64>();
         }
         if q > 0.0 {
-            masses_of(&self.div.mixture, false, div);
+            self.div.mixture.half_space_masses(x, n, false, div);
             z += q * div[..self.div.mixture.len()].iter().sum::<f64>();
         }
         z
@@ -432,7 +444,7 @@ impl GmmGuide {
         let xu = self.to_unit(x);
         let n = normal.and_then(|n| unit(n.as_dvec3()));
         let z = match n {
-            Some(n) => self.hemisphere_masses(xu, n, &mut [0.0; 2 * MAX_COMPONENTS], false),
+            Some(n) => self.hemisphere_masses(xu, n, &mut [0.0; 2 * MAX_COMPONENTS]),
             None => 1.0,
         };
         self.pdf_given(xu, n, d, z, |w| self.full_pdf(xu, w))
@@ -704,11 +716,8 @@ impl GuidingDistribution for GmmGuide {
         if !self.is_trained() || !xu.is_finite() {
             return;
         }
-        self.prepare_terms(xu, &mut vertex.buffer32);
-        if let Some(n) = normal.and_then(|n| unit(n.as_dvec3())) {
-            vertex.buffer.resize(2 * MAX_COMPONENTS, 0.0);
-            vertex.scalars[3] = self.hemisphere_masses(xu, n, &mut vertex.buffer, true);
-        }
+        let n = normal.and_then(|n| unit(n.as_dvec3()));
+        vertex.scalars[3] = self.prepare_kernel(xu, n, &mut vertex.buffer32, &mut vertex.buffer);
     }
 
     fn sample_at(&self, vertex: &GuideVertex, u: [f32; 3]) -> Option<GuideSample> {

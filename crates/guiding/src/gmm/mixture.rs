@@ -1,18 +1,18 @@
 //! A weighted mixture of 3D Gaussians: the spatial density ρ(y) = Σ_k π_k N(y | μ_k, Σ_k), its exact
 //! directional pdf and point sampling.
 
-use glam::DVec3;
+use glam::{DVec3, Vec3};
 
 use super::directional_pdf::{half_line_kernel, half_line_kernel_f32};
 use super::gaussian::Gaussian3;
-use super::special::{inv_norm_cdf, norm_cdf_branchless, open_unit};
-use super::special32::norm_cdf_f32;
+use super::special::{inv_norm_cdf_approx, norm_cdf_branchless, open_unit};
+use super::special32::norm_cdf_f32_given_u;
 
 /// Most components one mixture may hold (bounds the stack buffers of the sampling and E-step loops).
 pub const MAX_COMPONENTS: usize = 128;
 /// Lanes of the component loops: arrays are padded to a multiple of it with inert components.
 const LANES: usize = 8;
-/// `f32` values per component that [`Mixture::prepare_terms`] writes for a shading point.
+/// `f32` values per component that [`Mixture::prepare_vertex`] writes for a shading point.
 pub const TERMS_PER_COMPONENT: usize = 4;
 /// Tolerance on Σπ = 1 for mixtures whose weights are taken as given (snapshots, M-step output).
 const WEIGHT_SUM_TOLERANCE: f64 = 1e-9;
@@ -194,16 +194,25 @@ impl Mixture {
     }
 
     /// The component count rounded up to the loops' lane count: the length of the per-component
-    /// buffers that [`Mixture::half_space_masses`] and [`Mixture::prepare_terms`] fill.
+    /// buffers that [`Mixture::half_space_masses`] and [`Mixture::prepare_vertex`] fill.
     pub fn padded_len(&self) -> usize {
         self.soa.coef.len()
     }
 
-    /// Writes what the renderer's pdf kernel needs of shading point `x` for every component, computed
-    /// in `f64` and stored in `f32`: the whitened offset zd = L⁻¹(μ − x) and ½|zd|², as four blocks of
-    /// [`Mixture::padded_len`] values in `terms` (which needs [`TERMS_PER_COMPONENT`] times that).
+    /// Writes what the renderer's kernel needs of shading point `x` for every component, in one pass
+    /// over the components: into `terms` (which needs [`TERMS_PER_COMPONENT`] × [`Mixture::padded_len`]
+    /// values) the whitened offset zd = L⁻¹(μ − x) and ½|zd|², computed in `f64` and stored in `f32` as
+    /// four blocks; with `half_space` = (n, upper), into `masses` ([`Mixture::padded_len`] values)
+    /// π_k·P_k(n·(y − x) > 0) (or < 0 if not `upper`), the offset along n in `f64` and Φ (to about 3e-7
+    /// relative) in `f32` (see [`Mixture::half_space_masses`] for the `f64` reference).
     #[inline]
-    pub fn prepare_terms(&self, x: DVec3, terms: &mut [f32]) {
+    pub fn prepare_vertex(
+        &self,
+        x: DVec3,
+        half_space: Option<(DVec3, bool)>,
+        terms: &mut [f32],
+        masses: &mut [f64],
+    ) {
         let s = &self.soa;
         let n = s.coef.len();
         let (zd0, rest) = terms[..TERMS_PER_COMPONENT * n].split_at_mut(n);
@@ -212,6 +221,12 @@ impl Mixture {
         let (mx, my, mz) = (&s.mean[0][..n], &s.mean[1][..n], &s.mean[2][..n]);
         let [l0, l1, l2, l3, l4, l5] = &s.inv_chol;
         let (l0, l1, l2, l3, l4, l5) = (&l0[..n], &l1[..n], &l2[..n], &l3[..n], &l4[..n], &l5[..n]);
+        let (normal, sign) = match half_space {
+            Some((normal, upper)) => (normal, if upper { 1.0 } else { -1.0 }),
+            None => (DVec3::ZERO, 1.0),
+        };
+        let mut delta = [0.0f32; MAX_COMPONENTS];
+        let delta = &mut delta[..n];
         for k in 0..n {
             let d = [mx[k] - x.x, my[k] - x.y, mz[k] - x.z];
             let z0 = l0[k] * d[0];
@@ -221,12 +236,16 @@ impl Mixture {
             zd1[k] = z1 as f32;
             zd2[k] = z2 as f32;
             half_c[k] = (0.5 * z0.mul_add(z0, z1.mul_add(z1, z2 * z2))) as f32;
+            delta[k] = (sign * (normal.x * d[0] + normal.y * d[1] + normal.z * d[2])) as f32;
+        }
+        if half_space.is_some() {
+            self.masses_from_offsets(normal.as_vec3(), delta, masses);
         }
     }
 
     /// The renderer's directional pdf (see [`Mixture::directional_pdf`], the `f64` reference it
     /// agrees with to about 1e-6 relative; see `half_line_kernel_f32` for the bound) at unit `omega`
-    /// from the shading point whose [`Mixture::prepare_terms`] are `terms`: `f32` eight lanes wide, summed
+    /// from the shading point whose [`Mixture::prepare_vertex`] terms are `terms`: `f32` eight lanes wide, summed
     /// in eight fixed lanes.
     #[inline]
     pub fn directional_pdf_prepared(&self, terms: &[f32], omega: [f32; 3]) -> f32 {
@@ -261,7 +280,7 @@ impl Mixture {
     }
 
     /// Writes π_k·P_k(n·(y − x) > 0) (or < 0 if `upper` is false) for every component into `out`, all in
-    /// `f64` (the reference for [`Mixture::half_space_masses_fast`]; `out` needs
+    /// `f64` (the reference for the masses of [`Mixture::prepare_vertex`]; `out` needs
     /// [`Mixture::padded_len`] entries).
     #[inline]
     pub fn half_space_masses(&self, x: DVec3, n: DVec3, upper: bool, out: &mut [f64]) {
@@ -285,37 +304,32 @@ impl Mixture {
         }
     }
 
-    /// [`Mixture::half_space_masses`] for the renderer: the offset along n in `f64`, the rest (Φ to
-    /// about 3e-7 relative) in `f32` eight lanes wide.
+    /// π_k·Φ(δ_k/σ_k) into `out` from the signed offsets δ_k along the unit normal `n` (σ_k = √(nᵀΣ_kn)),
+    /// in `f32` eight lanes wide, with one division per component.
     #[inline]
-    pub fn half_space_masses_fast(&self, x: DVec3, n: DVec3, upper: bool, out: &mut [f64]) {
+    fn masses_from_offsets(&self, n: Vec3, delta: &[f32], out: &mut [f64]) {
         let s = &self.soa;
         let len = s.coef.len();
         let out = &mut out[..len];
-        let (mx, my, mz) = (&s.mean[0][..len], &s.mean[1][..len], &s.mean[2][..len]);
+        let delta = &delta[..len];
         let [c0, c1, c2, c3, c4, c5] = &s.chol32;
         let (c0, c1, c2) = (&c0[..len], &c1[..len], &c2[..len]);
         let (c3, c4, c5) = (&c3[..len], &c4[..len], &c5[..len]);
         let weights = &s.weight[..len];
-        let sign = if upper { 1.0 } else { -1.0 };
-        // The offset along n in f64 (it is a small difference of coordinates), the rest in f32 eight
-        // lanes wide: three loops that each vectorise.
-        let mut delta = [0.0f32; MAX_COMPONENTS];
-        let delta = &mut delta[..len];
-        for k in 0..len {
-            let d = n.x * (mx[k] - x.x) + n.y * (my[k] - x.y) + n.z * (mz[k] - x.z);
-            delta[k] = (sign * d) as f32;
-        }
-        let nf = n.as_vec3();
         let mut cdf = [0.0f32; MAX_COMPONENTS];
         let cdf = &mut cdf[..len];
         for k in 0..len {
             // |Lᵀn| = √(nᵀΣn).
-            let t0 = c0[k].mul_add(nf.x, c1[k].mul_add(nf.y, c3[k] * nf.z));
-            let t1 = c2[k].mul_add(nf.y, c4[k] * nf.z);
-            let t2 = c5[k] * nf.z;
-            let sigma = t0.mul_add(t0, t1.mul_add(t1, t2 * t2)).sqrt();
-            cdf[k] = norm_cdf_f32(delta[k] / sigma);
+            let t0 = c0[k].mul_add(n.x, c1[k].mul_add(n.y, c3[k] * n.z));
+            let t1 = c2[k].mul_add(n.y, c4[k] * n.z);
+            let t2 = c5[k] * n.z;
+            let var = t0.mul_add(t0, t1.mul_add(t1, t2 * t2));
+            let sigma = var.sqrt();
+            // k = δ/σ and u = 4/(|k| + 4) = 4σ/(|δ| + 4σ) from one reciprocal.
+            let reach = delta[k].abs() + 4.0 * sigma;
+            let inv = 1.0 / (sigma * reach);
+            let u = 4.0 * var * inv;
+            cdf[k] = norm_cdf_f32_given_u(delta[k] * reach * inv, u);
         }
         for k in 0..len {
             out[k] = weights[k] * cdf[k] as f64;
@@ -334,13 +348,14 @@ impl Mixture {
     }
 
     /// A point y ~ ρ from three uniforms: `u[0]` selects the component and, rescaled, drives the first
-    /// normal variate; all three normal variates are inverse-CDF transforms.
+    /// normal variate; all three normal variates are inverse-CDF transforms (to 1e-9, see
+    /// [`inv_norm_cdf_approx`]).
     pub fn sample_point(&self, u: [f64; 3]) -> Option<DVec3> {
         let (k, u0) = self.select(u[0])?;
         let z = DVec3::new(
-            inv_norm_cdf(open_unit(u0)),
-            inv_norm_cdf(open_unit(u[1])),
-            inv_norm_cdf(open_unit(u[2])),
+            inv_norm_cdf_approx(open_unit(u0)),
+            inv_norm_cdf_approx(open_unit(u[1])),
+            inv_norm_cdf_approx(open_unit(u[2])),
         );
         Some(self.components[k].point(z))
     }

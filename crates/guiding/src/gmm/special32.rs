@@ -118,8 +118,14 @@ pub fn mills_ratio_f32(beta: f32) -> f32 {
 /// to 0) and 1 − φ(k)R(k) above.
 #[inline(always)]
 pub fn norm_cdf_f32(k: f32) -> f32 {
+    norm_cdf_f32_given_u(k, 4.0 / (k.abs() + 4.0))
+}
+
+/// [`norm_cdf_f32`] given u = 4/(|k| + 4), for callers that get u without a division of its own.
+#[inline(always)]
+pub fn norm_cdf_f32_given_u(k: f32, u: f32) -> f32 {
     let beta = k.abs();
-    let tail = INV_SQRT_2PI_F32 * exp_f32(-0.5 * beta * beta) * mills_ratio_f32(beta);
+    let tail = INV_SQRT_2PI_F32 * exp_f32(-0.5 * beta * beta) * (u * horner(&R_POLY, u));
     if k <= 0.0 {
         tail
     } else {

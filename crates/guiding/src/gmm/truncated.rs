@@ -5,7 +5,9 @@
 use glam::DVec3;
 
 use super::gaussian::Gaussian3;
-use super::special::{inv_norm_cdf, norm_cdf, norm_cdf_fast, norm_interval, norm_sf};
+use super::special::{
+    inv_norm_cdf, inv_norm_cdf_approx, norm_cdf, norm_cdf_fast, norm_interval, norm_sf,
+};
 
 /// The standard normal conditioned on (a, b), a < b (either may be infinite), by inverse CDF of `u`
 /// in [0, 1). Monotone in `u`. The quantile is taken on the side of the median the result falls on
@@ -62,7 +64,8 @@ pub fn half_space_mass(g: &Gaussian3, x: DVec3, n: DVec3, upper: bool) -> f64 {
 ///
 /// With y = μ + L z, the constraint only involves w = e·z for e = Lᵀn/|Lᵀn|, which is a standard normal
 /// independent of the rest of z: w is drawn from the truncated normal with `u[0]`, the two components of
-/// z perpendicular to e from `u[1]`, `u[2]` by inverse CDF.
+/// z perpendicular to e from `u[1]`, `u[2]` by inverse CDF (Acklam's, to 1e-9: see
+/// [`inv_norm_cdf_approx`]).
 pub fn sample_half_space(g: &Gaussian3, x: DVec3, n: DVec3, upper: bool, u: [f64; 3]) -> DVec3 {
     let (delta, ltn) = plane_offset(g, x, n);
     let sigma = ltn.length();
@@ -74,6 +77,6 @@ pub fn sample_half_space(g: &Gaussian3, x: DVec3, n: DVec3, upper: bool, u: [f64
         truncated_std_normal(f64::NEG_INFINITY, bound, u[0])
     };
     let (t1, t2) = orthonormal_basis(e);
-    let z = e * w + t1 * inv_norm_cdf(u[1]) + t2 * inv_norm_cdf(u[2]);
+    let z = e * w + t1 * inv_norm_cdf_approx(u[1]) + t2 * inv_norm_cdf_approx(u[2]);
     g.point(z)
 }
