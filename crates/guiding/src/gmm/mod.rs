@@ -24,6 +24,6 @@ pub use directional_pdf::LineGaussian;
 pub use em::{FitParams, FitReport, SplitCandidate, SuffStats};
 pub use gaussian::Gaussian3;
 pub use guide::{GmmConfig, GmmGuide, MIN_HEMISPHERE_MASS, NARROWING_DECAY};
-pub use mixture::{Mixture, MAX_COMPONENTS};
+pub use mixture::{Mixture, MAX_COMPONENTS, TERMS_PER_COMPONENT};
 pub use rays::{TrainingRay, WeightedPoint};
 pub use sym3::{Lower3, Sym3};
