@@ -325,20 +325,7 @@ fn refine_log_quantile(mut x: f64, log_p: f64) -> f64 {
 /// The standard normal quantile Φ⁻¹(p); −∞ at 0, +∞ at 1. The upper half is computed as −Φ⁻¹(1 − p),
 /// where 1 − p is exact, so both tails keep their relative accuracy.
 pub fn inv_norm_cdf(p: f64) -> f64 {
-    if p.is_nan() {
-        return p;
-    }
-    if p <= 0.0 {
-        return f64::NEG_INFINITY;
-    }
-    if p >= 1.0 {
-        return f64::INFINITY;
-    }
-    if p > 0.5 {
-        -inv_norm_cdf_lower(1.0 - p)
-    } else {
-        inv_norm_cdf_lower(p)
-    }
+    quantile_by_halves(p, inv_norm_cdf_lower)
 }
 
 /// Φ⁻¹(p) to Acklam's relative accuracy of 1.15e-9, without the refinement of [`inv_norm_cdf`]: for
@@ -346,6 +333,13 @@ pub fn inv_norm_cdf(p: f64) -> f64 {
 /// itself (the pdf is evaluated at the direction actually drawn) and the refinement's erfc and exp
 /// would double the cost. −∞ at 0, +∞ at 1.
 pub fn inv_norm_cdf_approx(p: f64) -> f64 {
+    quantile_by_halves(p, acklam_lower)
+}
+
+/// Φ⁻¹(p) from a quantile `lower` of the lower half (0, 0.5], by symmetry above; NaN, −∞ and +∞ at
+/// NaN, p ≤ 0 and p ≥ 1.
+#[inline]
+fn quantile_by_halves(p: f64, lower: fn(f64) -> f64) -> f64 {
     if p.is_nan() {
         return p;
     }
@@ -356,9 +350,9 @@ pub fn inv_norm_cdf_approx(p: f64) -> f64 {
         return f64::INFINITY;
     }
     if p > 0.5 {
-        -acklam_lower(1.0 - p)
+        -lower(1.0 - p)
     } else {
-        acklam_lower(p)
+        lower(p)
     }
 }
 
