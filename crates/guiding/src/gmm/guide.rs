@@ -35,6 +35,9 @@ pub const MIN_HEMISPHERE_MASS: f64 = 1e-6;
 /// would cost as much per pdf evaluation as a useful one while adding nothing to the sampling (caustic
 /// scene: the diverging mixture held 1e-16 of the weight with 63 components).
 pub const MIN_MIXTURE_SHARE: f64 = 1e-3;
+/// `f32` kernel terms per mixture in a [`GuideVertex`]'s `buffer32`: the converging mixture's block,
+/// then the diverging one's.
+const KERNEL_TERMS_BLOCK: usize = TERMS_PER_COMPONENT * MAX_COMPONENTS;
 /// The most points drawn along one ray when rays are few (`GmmConfig::min_points`).
 const MAX_ADAPTIVE_POINTS_PER_RAY: usize = 64;
 /// Magic prefix of [`GmmGuide::save`] snapshots.
@@ -367,7 +370,7 @@ impl GmmGuide {
     fn full_pdf_prepared(&self, terms: &[f32], w: DVec3) -> f64 {
         let q = self.p_div;
         let wf = [w.x as f32, w.y as f32, w.z as f32];
-        let (conv, div) = terms.split_at(TERMS_PER_COMPONENT * MAX_COMPONENTS);
+        let (conv, div) = terms.split_at(KERNEL_TERMS_BLOCK);
         let mut p = 0.0;
         if q < 1.0 {
             p += (1.0 - q) * self.conv.mixture.directional_pdf_prepared(conv, wf) as f64;
@@ -379,10 +382,9 @@ impl GmmGuide {
         p
     }
 
-    /// Fills `terms` (converging mixture first, then diverging, [`TERMS_PER_COMPONENT`] ×
-    /// [`MAX_COMPONENTS`] values each) with the per-component terms of the `f32` kernel at unit-frame
-    /// `x` and, with a unit normal `n`, `masses` as [`GmmGuide::hemisphere_masses`] does (Φ in `f32`),
-    /// returning Z (1 without a normal).
+    /// Fills `terms` (converging mixture first, then diverging, [`KERNEL_TERMS_BLOCK`] values each) with
+    /// the per-component terms of the `f32` kernel at unit-frame `x` and, with a unit normal `n`,
+    /// `masses` as [`GmmGuide::hemisphere_masses`] does (Φ in `f32`), returning Z (1 without a normal).
     #[inline]
     fn prepare_kernel(
         &self,
@@ -391,28 +393,43 @@ impl GmmGuide {
         terms: &mut Vec<f32>,
         masses: &mut Vec<f64>,
     ) -> f64 {
-        let block = TERMS_PER_COMPONENT * MAX_COMPONENTS;
-        terms.resize(2 * block, 0.0);
+        terms.resize(2 * KERNEL_TERMS_BLOCK, 0.0);
         masses.resize(2 * MAX_COMPONENTS, 0.0);
-        let (conv_terms, div_terms) = terms.split_at_mut(block);
+        let (conv_terms, div_terms) = terms.split_at_mut(KERNEL_TERMS_BLOCK);
         let (conv_masses, div_masses) = masses.split_at_mut(MAX_COMPONENTS);
         let q = self.p_div;
-        let mut z = 0.0;
         if q < 1.0 {
-            let m = &self.conv.mixture;
-            m.prepare_vertex(x, n.map(|n| (n, true)), conv_terms, conv_masses);
-            z += (1.0 - q) * conv_masses[..m.len()].iter().sum::<f64>();
+            let on_side = n.map(|n| (n, true));
+            self.conv
+                .mixture
+                .prepare_vertex(x, on_side, conv_terms, conv_masses);
         }
         if q > 0.0 {
-            let m = &self.div.mixture;
-            m.prepare_vertex(x, n.map(|n| (n, false)), div_terms, div_masses);
-            z += q * div_masses[..m.len()].iter().sum::<f64>();
+            let on_side = n.map(|n| (n, false));
+            self.div
+                .mixture
+                .prepare_vertex(x, on_side, div_terms, div_masses);
         }
-        if n.is_some() {
-            z
-        } else {
-            1.0
+        match n {
+            Some(_) => self.hemisphere_total(masses),
+            None => 1.0,
         }
+    }
+
+    /// Z = (1 − p_div)·Σ_conv + p_div·Σ_div of the per-component hemisphere masses in `masses`
+    /// (converging first, then diverging, [`MAX_COMPONENTS`] entries each).
+    #[inline]
+    fn hemisphere_total(&self, masses: &[f64]) -> f64 {
+        let q = self.p_div;
+        let (conv, div) = masses.split_at(MAX_COMPONENTS);
+        let mut z = 0.0;
+        if q < 1.0 {
+            z += (1.0 - q) * conv[..self.conv.mixture.len()].iter().sum::<f64>();
+        }
+        if q > 0.0 {
+            z += q * div[..self.div.mixture.len()].iter().sum::<f64>();
+        }
+        z
     }
 
     /// Fills `masses` with every component's share π_kΦ_k (converging, first half) or π_k(1 − Φ_k)
@@ -422,16 +439,13 @@ impl GmmGuide {
     fn hemisphere_masses(&self, x: DVec3, n: DVec3, masses: &mut [f64]) -> f64 {
         let q = self.p_div;
         let (conv, div) = masses.split_at_mut(MAX_COMPONENTS);
-        let mut z = 0.0;
         if q < 1.0 {
             self.conv.mixture.half_space_masses(x, n, true, conv);
-            z += (1.0 - q) * conv[..self.conv.mixture.len()].iter().sum::<f64>();
         }
         if q > 0.0 {
             self.div.mixture.half_space_masses(x, n, false, div);
-            z += q * div[..self.div.mixture.len()].iter().sum::<f64>();
         }
-        z
+        self.hemisphere_total(masses)
     }
 
     /// The pdf from the `f64` reference kernel ([`Mixture::directional_pdf`]), which the renderer's

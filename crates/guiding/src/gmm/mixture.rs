@@ -256,7 +256,6 @@ impl Mixture {
         let (zd2, half_c) = rest.split_at(n);
         let [l0, l1, l2, l3, l4, l5] = &s.inv_chol32;
         let (l0, l1, l2, l3, l4, l5) = (&l0[..n], &l1[..n], &l2[..n], &l3[..n], &l4[..n], &l5[..n]);
-        let (zd0, zd1, zd2, half_c) = (&zd0[..n], &zd1[..n], &zd2[..n], &half_c[..n]);
         let coef = &s.coef32[..n];
         let mut values = [0.0f32; MAX_COMPONENTS];
         let values = &mut values[..n];

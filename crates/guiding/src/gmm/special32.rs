@@ -99,33 +99,44 @@ pub fn exp_f32(x: f32) -> f32 {
     }
 }
 
+/// The fit variable u = 4/(β + 4) of [`H_POLY`] and [`R_POLY`].
+#[inline(always)]
+fn fit_variable(beta: f32) -> f32 {
+    4.0 / (beta + 4.0)
+}
+
+/// The Mills ratio at fit variable u = 4/(β + 4).
+#[inline(always)]
+fn mills_ratio_at(u: f32) -> f32 {
+    u * horner(&R_POLY, u)
+}
+
 /// H(β) = ∫₀^∞ v² e^{−βv − v²/2} dv for β ≥ 0 (see [`super::special::half_line_h`]), relative error
 /// below 3e-7.
 #[inline(always)]
 pub fn half_line_h_f32(beta: f32) -> f32 {
-    let u = 4.0 / (beta + 4.0);
+    let u = fit_variable(beta);
     2.0 * u * u * u * horner(&H_POLY, u)
 }
 
 /// The Mills ratio R(β) = Φ(−β)/φ(β) for β ≥ 0, relative error below 2e-7.
 #[inline(always)]
 pub fn mills_ratio_f32(beta: f32) -> f32 {
-    let u = 4.0 / (beta + 4.0);
-    u * horner(&R_POLY, u)
+    mills_ratio_at(fit_variable(beta))
 }
 
 /// Φ(k) in `f32`: φ(k)R(−k) for k ≤ 0 (relative accuracy about 3e-7 down to k ≈ −13, where it flushes
 /// to 0) and 1 − φ(k)R(k) above.
 #[inline(always)]
 pub fn norm_cdf_f32(k: f32) -> f32 {
-    norm_cdf_f32_given_u(k, 4.0 / (k.abs() + 4.0))
+    norm_cdf_f32_given_u(k, fit_variable(k.abs()))
 }
 
 /// [`norm_cdf_f32`] given u = 4/(|k| + 4), for callers that get u without a division of its own.
 #[inline(always)]
 pub fn norm_cdf_f32_given_u(k: f32, u: f32) -> f32 {
     let beta = k.abs();
-    let tail = INV_SQRT_2PI_F32 * exp_f32(-0.5 * beta * beta) * (u * horner(&R_POLY, u));
+    let tail = INV_SQRT_2PI_F32 * exp_f32(-0.5 * beta * beta) * mills_ratio_at(u);
     if k <= 0.0 {
         tail
     } else {
