@@ -541,7 +541,7 @@ fn run_args(
             guide_fraction: None,
             rr: None,
             no_escaped: false,
-            fallback: false,
+            no_fallback: false,
             octree_threshold: None,
             gmm_k_max: None,
             gmm_params: Vec::new(),

@@ -91,13 +91,12 @@ pub struct GuidingArgs {
     /// Do not train on segments that escaped the scene (Rath et al. drop them).
     #[arg(long)]
     pub no_escaped: bool,
-    /// Give up guiding where it does not pay: a time-budget render whose guided time per sample, over
-    /// the unguided one, exceeds three times the guided segments' estimated gain in second moment over
-    /// BSDF sampling at three consecutive checks (after the third, fourth and fifth guided iterations)
-    /// renders the rest unguided. Off by default: the guide is still young at the checks, and in one of
-    /// two 20 s runs each it gave up on the caustic and on sms-ring, where guiding wins.
+    /// Never give up guiding. By default a time-budget render compares, after two guided training
+    /// iterations, their images with the unguided first iteration's; where guiding's relative error
+    /// times its render time is the larger, it renders the rest of the budget unguided (the Cornell box,
+    /// veach-mis).
     #[arg(long)]
-    pub fallback: bool,
+    pub no_fallback: bool,
     /// Octree relative split threshold (orth.threshold).
     #[arg(long)]
     pub octree_threshold: Option<f64>,
@@ -324,7 +323,7 @@ pub fn run(a: RenderArgs) -> Result<()> {
                 budget,
                 combine,
                 pretrained: g.load_guide.is_some(),
-                fallback: g.fallback,
+                fallback: !g.no_fallback,
             };
             let out = render_guided(
                 &loaded.scene,

@@ -11,8 +11,9 @@
 //!
 //! Under a time budget a training iteration whose deadline has passed before it starts is skipped (a
 //! slow guided pass must not push the whole render past its budget), and with `fallback` the render
-//! checks from [`FALLBACK_GUIDED_ITERATIONS`] guided iterations on whether guiding pays for its cost at
-//! all (see [`GuidedRenderSettings::fallback`]). Training segments carry per-pixel weights from the
+//! checks after its first guided iterations ([`FALLBACK_THRESHOLDS`]) whether guiding pays for its cost
+//! at all, by comparing their images with the unguided first iteration's (see
+//! [`GuidedRenderSettings::fallback`]). Training segments carry per-pixel weights from the
 //! image so far ([`relative_pixel_weights`]), so that what is learned from second moments weighs every
 //! pixel's relative error alike.
 //!
@@ -21,6 +22,7 @@
 //! and sample budget give the same learned model and image whatever the number of threads.
 
 use super::combine::{inverse_variance_weights, weighted_image, Combine, IterationImage};
+use super::cross_check::{cross_check, CrossCheck};
 use super::pixel_weights::relative_pixel_weights;
 use super::{next_pass_spp, PassRunner, Progress, ProgressCounter, RenderSettings, RenderStats};
 use crate::camera::Camera;
@@ -33,25 +35,17 @@ use std::time::{Duration, Instant};
 /// Pixel samples per pass at most during training, bounding the memory of one pass's segments.
 pub const MAX_TRAINING_PASS_SAMPLES: u64 = 1 << 20;
 
-/// A time-budget render first compares guided and unguided efficiency once this many guided training
-/// iterations have rendered.
-pub const FALLBACK_GUIDED_ITERATIONS: usize = 3;
-/// Guiding is given up only after this many consecutive checks (one after every guided training
-/// iteration from the [`FALLBACK_GUIDED_ITERATIONS`]th on, each pooling all guided iterations so far)
-/// found it not paying; the first check that finds it paying ends the checks. R is heavy-tailed and
-/// grows as the guide learns: a single early check gave up on focal scenes (camera obscura, sms-ring).
-pub const FALLBACK_CONFIRMATIONS: u32 = 3;
-/// Guiding is given up only if it looks more than this many times less efficient than path tracing
-/// (T > margin × R, see `fallback_check`): the guide is still young at the check, and R, a mean of
-/// heavy-tailed terms, is more often under- than overestimated. Measured (gmm, 20 s, two runs each),
-/// T/R at the third check was 3.7–5.2 on the Cornell box, veach-mis and veach-bidir, but 2.8 once on
-/// the camera obscura, where guiding wins, and at most 2.1 on sms-ring: a margin of 2 gave up on those.
-/// With 3 it still gave up on the caustic (T/R 3.2: its R rises only after the fifth guided iteration)
-/// and on sms-ring in one of two runs each, which is why the check is opt-in. Since the GMM's `f32` pdf
-/// kernel, T is 1.5–2.6 at the first check: margin 3 fell back on the Cornell box in one of three runs
-/// and on veach-mis in none, while margin 2 (two of three, two of two) also gave up on sms-ring in both
-/// of two runs (R 0.34 and 0.53, T 1.5), where guiding wins tenfold.
-pub const FALLBACK_MARGIN: f64 = 3.0;
+/// A time-budget render checks whether guiding pays ([`cross_check`]) after each of its first guided
+/// training iterations, one threshold per check: guiding is given up at the first check whose ratio of
+/// guided to unguided inefficiency (relative error × time) exceeds its threshold, and kept after the last.
+/// Each training iteration is 1/15 of half the budget by default, so every check later costs a non-focal
+/// scene another 3 % of the time it then renders unguided. The first check's threshold is lower: after
+/// one guided iteration the young guide's own noise, which its halves underestimate, still weighs in the
+/// comparison in guiding's favour (veach-mis 0.5–0.6 after one guided iteration, 1.2–1.6 after two;
+/// the Cornell box 1.2–1.6 and 1.9–2.2). The focal scenes stayed below 0.1 at both checks (20 s,
+/// seeds 0–2, both guides; veach-bidir and the door gap were the highest). The guided iterations so far
+/// were rendered with young guides, so a ratio near 1 still favours guiding the rest.
+pub const FALLBACK_THRESHOLDS: [f64; 2] = [0.3, 1.0];
 
 /// How long a guided render runs and how it is split into iterations.
 #[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
@@ -90,13 +84,12 @@ pub struct GuidedRenderSettings {
     /// The guide is already trained (loaded from a file): no training iterations, the whole budget is
     /// one guided iteration.
     pub pretrained: bool,
-    /// Give up guiding if it does not pay (time budget and inverse-variance combination only): from
-    /// [`FALLBACK_GUIDED_ITERATIONS`] guided training iterations on, the guided segments' importance-
-    /// reweighted second moments tell whether the guide samples better than the BSDF (R, see
-    /// `fallback_check`); if guided time per sample over unguided (T) exceeds [`FALLBACK_MARGIN`] × R
-    /// at [`FALLBACK_CONFIRMATIONS`] consecutive checks, training stops and the rest of the budget is
-    /// rendered unguided, without the guide's cost (the Cornell box and veach-mis: guiding costs 3–5× a
-    /// path tracer's time per sample and R ≤ 1). The output then combines the unguided iterations.
+    /// Give up guiding if it does not pay (time budget and inverse-variance combination only): after
+    /// each of the first guided training iterations their images are compared with the unguided first
+    /// iteration's ([`cross_check`]); if guiding's inefficiency is more than the check's threshold
+    /// ([`FALLBACK_THRESHOLDS`]) times the path tracer's, training stops and the rest of the budget is
+    /// rendered unguided, without the guide's cost (the Cornell box and veach-mis). The output then
+    /// combines the unguided iterations by their sample counts.
     pub fallback: bool,
 }
 
@@ -134,26 +127,15 @@ pub struct IterationStats {
     pub update: Option<UpdateStats>,
     /// Weight of this iteration in the output image.
     pub weight: f64,
+    /// Guided training iterations: the image-space comparison of the guided iterations so far with the
+    /// unguided first one ([`cross_check`]).
+    pub cross_check: Option<CrossCheck>,
 }
 
 /// Writes [`IterationStats::moments`] as their ratio.
 fn serialize_moment_ratio<S: serde::Serializer>(m: &[f64; 2], s: S) -> Result<S::Ok, S::Error> {
     let ratio = (m[0] > 0.0 && m[1].is_finite()).then(|| m[1] / m[0]);
     serde::Serialize::serialize(&ratio, s)
-}
-
-/// The outcome of the fallback check ([`GuidedRenderSettings::fallback`]), for the JSON record.
-#[derive(Clone, Copy, Debug, serde::Serialize)]
-pub struct FallbackCheck {
-    /// R: the estimated second moment of BSDF-only sampling over that of the guided mixture, from the
-    /// checked iterations' segments.
-    pub bsdf_moment_ratio: f64,
-    /// T: guided time per sample over unguided time per sample.
-    pub time_ratio: f64,
-    /// The render went on unguided (T > margin × R at every one of the checks).
-    pub fell_back: bool,
-    /// Checks made (each after one guided training iteration).
-    pub checks: u32,
 }
 
 /// The result of a guided render.
@@ -164,77 +146,18 @@ pub struct GuidedOutput {
     pub stats: RenderStats,
     /// Per-iteration statistics.
     pub iterations: Vec<IterationStats>,
-    /// The fallback check, if it was made.
-    pub fallback: Option<FallbackCheck>,
+    /// The fallback decision, if it was made.
+    pub fallback: Option<Fallback>,
 }
 
-/// One fallback check, pooling every guided iteration so far. Their segments, each sampled with p_mix,
-/// give by importance reweighting R, the ratio of the second moment their vertices would have had with
-/// the BSDF alone (guide fraction 0) to the one they had (unbiased, and it sees the rare paths the guide
-/// found, which a few unguided samples per pixel do not; emission is reweighted together with NEE and
-/// every pixel weighs alike, see `TrainingSegment::second_moment_with_fraction`). Guiding is efficient if
-/// its time per sample relative to the unguided first iteration's, T, is below R: the costs compared are
-/// T (guided) and R (unguided), per unit of second moment and unguided time. `fell_back` is this check's
-/// verdict (T > [`FALLBACK_MARGIN`] × R); `checks` is 1. `None` without an unguided first iteration and
-/// [`FALLBACK_GUIDED_ITERATIONS`] guided ones.
-fn fallback_check(stats: &[IterationStats]) -> Option<FallbackCheck> {
-    let rendered: Vec<&IterationStats> = stats.iter().filter(|s| s.spp > 0).collect();
-    let first = *rendered.first()?;
-    if first.guided {
-        return None;
-    }
-    let guided: Vec<&IterationStats> = rendered.iter().copied().filter(|s| s.guided).collect();
-    if guided.len() < FALLBACK_GUIDED_ITERATIONS {
-        return None;
-    }
-    let (m_mix, m_bsdf) = guided
-        .iter()
-        .fold((0.0, 0.0), |(a, b), s| (a + s.moments[0], b + s.moments[1]));
-    if !(m_mix > 0.0 && m_bsdf > 0.0 && m_bsdf.is_finite()) {
-        return None;
-    }
-    let ratio = m_bsdf / m_mix;
-    let per_sample = |s: &IterationStats| s.render_s / s.spp.max(1) as f64;
-    let guided_time: f64 = guided.iter().map(|s| s.render_s).sum::<f64>()
-        / guided.iter().map(|s| s.spp as f64).sum::<f64>().max(1.0);
-    let time_ratio = guided_time / per_sample(first).max(1e-12);
-    Some(FallbackCheck {
-        bsdf_moment_ratio: ratio,
-        time_ratio,
-        fell_back: ratio * FALLBACK_MARGIN < time_ratio,
-        checks: 1,
-    })
-}
-
-/// The fallback decision as checks come in ([`FALLBACK_CONFIRMATIONS`]).
-#[derive(Clone, Copy, Debug, Default)]
-struct FallbackState {
-    /// The last check, with `checks` counting all checks made.
-    last: Option<FallbackCheck>,
-    /// Consecutive checks that found guiding not paying.
-    against: u32,
-    /// No more checks: guiding was found paying, or given up.
-    decided: bool,
-}
-
-impl FallbackState {
-    /// Takes one check's verdict.
-    fn take(&mut self, mut check: FallbackCheck) {
-        check.checks = self.last.map_or(0, |c| c.checks) + 1;
-        if check.fell_back {
-            self.against += 1;
-            check.fell_back = self.against >= FALLBACK_CONFIRMATIONS;
-            self.decided = check.fell_back;
-        } else {
-            self.decided = true;
-        }
-        self.last = Some(check);
-    }
-
-    /// True once guiding has been given up.
-    fn fell_back(&self) -> bool {
-        self.last.is_some_and(|c| c.fell_back)
-    }
+/// The fallback decision of a render.
+#[derive(Clone, Copy, Debug, serde::Serialize)]
+pub struct Fallback {
+    /// The comparison it was made on.
+    pub check: CrossCheck,
+    /// The render went on unguided (inefficiency ratio above the check's threshold,
+    /// [`FALLBACK_THRESHOLDS`]).
+    pub fell_back: bool,
 }
 
 /// The spp of each training iteration under a sample budget, and the final iteration's.
@@ -324,17 +247,20 @@ pub fn render_guided(
     let mut last_runner_threads = 0;
     let mut rejected = 0u64;
     let mut total_spp = 0u32;
-    let mut fallback = FallbackState::default();
+    let mut fallback: Option<Fallback> = None;
+    let fell_back = |f: &Option<Fallback>| f.is_some_and(|f| f.fell_back);
+    // Render time and guidedness of each image in `images`.
+    let mut image_times: Vec<(f64, bool)> = Vec::new();
     let plans = training_plans
         .into_iter()
         .chain(std::iter::once(final_plan));
     for (index, plan) in plans.enumerate() {
         let index = index as u32;
         let training = index < training_iterations;
-        if training && (fallback.fell_back() || index > 0 && is_past(&plan)) {
+        if training && (fell_back(&fallback) || index > 0 && is_past(&plan)) {
             continue;
         }
-        let guided = (index > 0 || settings.pretrained) && guide.is_some() && !fallback.fell_back();
+        let guided = (index > 0 || settings.pretrained) && guide.is_some() && !fell_back(&fallback);
         let mut runner = PassRunner::new(scene, camera, spec, &settings.render, halves)
             .with_index_offset(total_spp);
         if training && guided {
@@ -396,7 +322,9 @@ pub fn render_guided(
                 {
                     Some(n) => n,
                     // The first iteration gets two samples per pixel, so that its halves give a variance.
-                    None if index == 0 && halves && runner.spp_done() < 2 => 1,
+                    // Every training iteration gets two samples per pixel, so that its halves give a
+                    // variance (the first one's for the weights, the guided ones' for the fallback).
+                    None if training && halves && runner.spp_done() < 2 => 1,
                     None => break,
                 },
             };
@@ -405,7 +333,44 @@ pub fn render_guided(
         let spp = runner.spp_done();
         total_spp += spp;
         rejected += runner.rejected_samples();
-        let update = match (&mut guide, training) {
+        if spp > 0 {
+            image_times.push((render_s, guided));
+            images.push(match runner.develop_halves() {
+                Some([a, b]) => IterationImage { a, b },
+                None => IterationImage {
+                    a: (runner.develop(), spp),
+                    b: (Image::new(0, 0), 0),
+                },
+            });
+        }
+        let mut check = None;
+        if training && guided && spp > 0 && image_times.first().is_some_and(|t| !t.1) {
+            let guided_images: Vec<(&IterationImage, f64)> = images
+                .iter()
+                .zip(&image_times)
+                .filter(|(_, t)| t.1)
+                .map(|(i, t)| (i, t.0))
+                .collect();
+            check = cross_check(&images[0], image_times[0].0, &guided_images);
+            let checking = settings.fallback
+                && halves
+                && matches!(settings.budget, TrainingBudget::Time { .. })
+                && !settings.pretrained
+                && fallback.is_none();
+            if let (true, Some(c)) = (checking, check) {
+                let checks = FALLBACK_THRESHOLDS.len();
+                let threshold = FALLBACK_THRESHOLDS[(guided_images.len() - 1).min(checks - 1)];
+                let fell = c.inefficiency_ratio > threshold;
+                if fell || guided_images.len() >= checks {
+                    fallback = Some(Fallback {
+                        check: c,
+                        fell_back: fell,
+                    });
+                }
+            }
+        }
+        // A render that has just given up guiding needs no more guide.
+        let update = match (&mut guide, training && !fell_back(&fallback)) {
             (Some(g), true) => {
                 let ctx = UpdateContext {
                     iteration: index,
@@ -417,15 +382,6 @@ pub fn render_guided(
             }
             _ => None,
         };
-        if spp > 0 {
-            images.push(match runner.develop_halves() {
-                Some([a, b]) => IterationImage { a, b },
-                None => IterationImage {
-                    a: (runner.develop(), spp),
-                    b: (Image::new(0, 0), 0),
-                },
-            });
-        }
         stats.push(IterationStats {
             index,
             guided,
@@ -438,25 +394,15 @@ pub fn render_guided(
             record_s,
             update,
             weight: 0.0,
+            cross_check: check,
         });
-        let time_budget = matches!(settings.budget, TrainingBudget::Time { .. });
-        if settings.fallback
-            && halves
-            && time_budget
-            && !settings.pretrained
-            && training
-            && guided
-            && !fallback.decided
-        {
-            if let Some(check) = fallback_check(&stats) {
-                fallback.take(check);
-            }
-        }
     }
 
     let weights = match settings.combine {
-        Combine::InverseVariance if fallback.fell_back() => {
-            // The unguided iterations are one estimator: weight them by their samples.
+        Combine::InverseVariance if fell_back(&fallback) => {
+            // The unguided iterations are one estimator: weight them by their samples. The guided ones
+            // before the check are left out: weighting them by the check's variance estimates, which
+            // are rough after one or two iterations, doubled veach-mis's error in one of six runs.
             let used: Vec<&IterationStats> = stats.iter().filter(|s| s.spp > 0).collect();
             let total: f64 = used
                 .iter()
@@ -526,89 +472,6 @@ pub fn render_guided(
             threads: last_runner_threads,
         },
         iterations: stats,
-        fallback: fallback.last,
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    fn iteration(guided: bool, spp: u32, render_s: f64, moments: [f64; 2]) -> IterationStats {
-        IterationStats {
-            index: 0,
-            guided,
-            training: true,
-            spp,
-            render_s,
-            samples_per_s: 0.0,
-            segments: 0,
-            moments,
-            record_s: 0.0,
-            update: None,
-            weight: 0.0,
-        }
-    }
-
-    #[test]
-    fn fallback_weighs_the_moment_ratio_against_the_time_ratio() {
-        // Unguided: 0.1 s per sample. Guided: 0.4 s per sample (T = 4), three guided iterations.
-        let first = iteration(false, 10, 1.0, [0.0, 0.0]);
-        let guided = |m_bsdf: f64| {
-            vec![
-                first.clone(),
-                iteration(true, 4, 1.6, [1.0, m_bsdf / 3.0]),
-                iteration(true, 2, 0.8, [1.0, m_bsdf / 3.0]),
-                iteration(true, 2, 0.8, [1.0, m_bsdf / 3.0]),
-            ]
-        };
-        // R = 1: the guide samples no better than the BSDF and costs 4× → fall back.
-        let c = fallback_check(&guided(3.0)).unwrap();
-        assert!((c.bsdf_moment_ratio - 1.0).abs() < 1e-12);
-        assert!((c.time_ratio - 4.0).abs() < 1e-12);
-        assert!(c.fell_back);
-        // R = 1.6: T = 4 < 3R → keep guiding.
-        assert!(!fallback_check(&guided(4.8)).unwrap().fell_back);
-        // Every guided iteration so far counts, pooled; unrendered ones are skipped.
-        let mut stats = guided(3.0);
-        stats.insert(1, iteration(true, 0, 0.0, [0.0, 0.0]));
-        stats.insert(1, iteration(true, 1, 0.4, [1.0, 1e3]));
-        let pooled = fallback_check(&stats).unwrap();
-        assert!((pooled.bsdf_moment_ratio - 1003.0 / 4.0).abs() < 1e-9);
-        assert!(!pooled.fell_back);
-        // No unguided first iteration, too few guided ones, or no moments: no decision.
-        assert!(fallback_check(&guided(3.0)[1..]).is_none());
-        assert!(fallback_check(&guided(3.0)[..3]).is_none());
-        assert!(fallback_check(&[
-            first.clone(),
-            iteration(true, 1, 1.0, [0.0, 0.0]),
-            iteration(true, 1, 1.0, [0.0, 0.0]),
-            iteration(true, 1, 1.0, [0.0, 0.0])
-        ])
-        .is_none());
-    }
-
-    #[test]
-    fn fallback_needs_consecutive_verdicts_and_a_paying_check_ends_the_checks() {
-        let check = |fell_back: bool| FallbackCheck {
-            bsdf_moment_ratio: 1.0,
-            time_ratio: 3.0,
-            fell_back,
-            checks: 1,
-        };
-        let mut state = FallbackState::default();
-        for k in 1..FALLBACK_CONFIRMATIONS {
-            state.take(check(true));
-            assert!(!state.fell_back() && !state.decided, "after {k} verdicts");
-        }
-        state.take(check(true));
-        assert!(state.fell_back() && state.decided);
-        assert_eq!(state.last.unwrap().checks, FALLBACK_CONFIRMATIONS);
-        // One check finding guiding paying, even after verdicts against it, decides for guiding.
-        let mut state = FallbackState::default();
-        state.take(check(true));
-        state.take(check(false));
-        assert!(!state.fell_back() && state.decided);
-        assert_eq!(state.last.unwrap().checks, 2);
+        fallback,
     }
 }

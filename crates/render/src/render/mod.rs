@@ -5,6 +5,7 @@
 //! and sample count give a bit-identical image whatever the number of threads.
 
 pub mod combine;
+pub mod cross_check;
 pub mod guide_ellipses;
 pub mod guide_view;
 pub mod guided;
