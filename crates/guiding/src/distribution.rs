@@ -93,6 +93,10 @@ pub struct TrainingSegment {
     /// True if the endpoint x_{k+1} is glossy (min roughness < 0.3): a virtual image is possible, so the
     /// whole forward line is a converging candidate and the backward line a diverging one.
     pub glossy_endpoint: bool,
+    /// True if the endpoint x_{k+1} also transmits (glass), where a guide may choose not to extend the
+    /// line through it (see [`crate::GmmConfig::extend_through_transmission`]).
+    #[serde(default)]
+    pub transmissive_endpoint: bool,
     /// The part of `weight` that is emission found at x_{k+1} itself, MIS-weighted against next-event
     /// estimation (0 if x_{k+1} emits nothing, or through a delta vertex where NEE cannot compete).
     pub emitted: f32,

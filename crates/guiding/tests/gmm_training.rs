@@ -88,6 +88,7 @@ fn virtual_image_batch(rng: &mut Rng, n: usize) -> Vec<TrainingSegment> {
                 guide_pdf: 0.0,
                 guide_fraction: 0.0,
                 glossy_endpoint: true,
+                transmissive_endpoint: false,
                 emitted: 0.0,
                 emitter_pdf: 0.0,
                 pixel_weight: 1.0,
@@ -307,6 +308,7 @@ fn near_duplicate_components_merge_but_not_below_k_min() {
                 guide_pdf: 0.0,
                 guide_fraction: 0.0,
                 glossy_endpoint: false,
+                transmissive_endpoint: false,
                 emitted: 0.0,
                 emitter_pdf: 0.0,
                 pixel_weight: 1.0,
@@ -364,6 +366,32 @@ fn the_diverging_mixture_learns_a_virtual_image_and_p_div_its_mass_share() {
         nearest < 0.02,
         "no diverging component at the virtual image ({nearest})"
     );
+}
+
+#[test]
+fn lines_through_glass_are_extended_unless_told_not_to() {
+    // The virtual-image batch with transmissive endpoints: by default the backward lines meet at the
+    // virtual image as for a mirror; without `extend_through_transmission` each is its finite segment
+    // (converging only, p_div 0).
+    let glass = |rng: &mut Rng| {
+        let mut b = virtual_image_batch(rng, 10_000);
+        b.iter_mut().for_each(|s| s.transmissive_endpoint = true);
+        b
+    };
+    let config = GmmConfig {
+        extend_through_transmission: false,
+        ..GmmConfig::default()
+    };
+    let mut plain = GmmGuide::new(scene_box(), config).unwrap();
+    plain.record(&glass(&mut Rng(6)));
+    let s = plain.update(&context(0, 9));
+    assert_eq!(detail(&s, "rays_div"), 0.0);
+    assert_eq!(plain.p_div(), 0.0);
+    let mut extended = GmmGuide::new(scene_box(), GmmConfig::default()).unwrap();
+    extended.record(&glass(&mut Rng(6)));
+    let s = extended.update(&context(0, 9));
+    assert_eq!(detail(&s, "rays_div"), 10_000.0);
+    assert!(extended.p_div() > 0.05, "p_div {}", extended.p_div());
 }
 
 #[test]
@@ -565,6 +593,7 @@ fn degenerate_inputs_give_finite_models() {
         guide_pdf: 0.0,
         guide_fraction: 0.0,
         glossy_endpoint: glossy,
+        transmissive_endpoint: false,
         emitted: 0.0,
         emitter_pdf: 0.0,
         pixel_weight: 1.0,

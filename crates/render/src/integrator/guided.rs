@@ -240,6 +240,7 @@ impl Integrator for GuidedPathIntegrator<'_> {
                 if last.segment.distance < 0.0 {
                     last.segment.distance = distance;
                     last.segment.glossy_endpoint = bsdf.min_roughness() < GLOSSY_ROUGHNESS;
+                    last.segment.transmissive_endpoint = bsdf.has_transmission();
                 }
             }
             if depth == 0 {
@@ -291,6 +292,7 @@ impl Integrator for GuidedPathIntegrator<'_> {
                         guide_pdf: step.guide_pdf,
                         guide_fraction: guide.map_or(0.0, |g| g.alpha),
                         glossy_endpoint: false,
+                        transmissive_endpoint: false,
                         emitted: 0.0,
                         emitter_pdf: 0.0,
                         pixel_weight: 1.0,
