@@ -6,18 +6,15 @@
 
 use criterion::{black_box, criterion_group, criterion_main, BenchmarkId, Criterion};
 use focal_guiding::gmm::{Gaussian3, Mixture, Sym3, MAX_COMPONENTS, TERMS_PER_COMPONENT};
+use focal_testkit::TestRng;
 use glam::DVec3;
 
-/// SplitMix64, enough for reproducible inputs.
-struct Rng(u64);
+/// Reproducible inputs.
+struct Rng(TestRng);
 
 impl Rng {
     fn f64(&mut self) -> f64 {
-        self.0 = self.0.wrapping_add(0x9e37_79b9_7f4a_7c15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
-        ((z ^ (z >> 31)) >> 11) as f64 / (1u64 << 53) as f64
+        self.0.next_f64()
     }
 
     fn sphere(&mut self) -> DVec3 {
@@ -59,7 +56,7 @@ fn vertices(rng: &mut Rng) -> Vec<Vertex> {
 fn per_vertex(c: &mut Criterion) {
     let mut group = c.benchmark_group("gmm_vertex");
     for k in [16usize, 48, 128] {
-        let mut rng = Rng(k as u64);
+        let mut rng = Rng(TestRng::new(k as u64));
         let m = mixture(&mut rng, k);
         let vs = vertices(&mut rng);
         group.bench_with_input(BenchmarkId::new("f64_reference", k), &k, |b, _| {

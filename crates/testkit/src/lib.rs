@@ -142,6 +142,12 @@ impl TestRng {
     pub fn next_f32(&mut self) -> f32 {
         (self.next_u32() >> 8) as f32 * (1.0 / (1u32 << 24) as f32)
     }
+
+    /// Uniform in [0, 1) with 53 random bits (two draws).
+    pub fn next_f64(&mut self) -> f64 {
+        let bits = ((self.next_u32() as u64) << 21) ^ (self.next_u32() as u64 >> 11);
+        bits as f64 * (1.0 / (1u64 << 53) as f64)
+    }
 }
 
 /// Direction with cos θ = `z` and azimuth `phi`.

@@ -14,7 +14,6 @@
 //! (relative error falls as 1/time); guiding pays if its inefficiency is the smaller.
 
 use super::combine::{IterationImage, RELATIVE_EPSILON};
-use crate::film::Image;
 
 /// The outcome of one comparison, for the JSON record.
 #[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
@@ -47,13 +46,16 @@ pub fn cross_check(
         return None;
     }
     let u = unguided.image();
-    let images: Vec<(Image, f64, f64)> = guided
+    // Per guided iteration: the weights of its halves in the pooled mean Σ_i (n_A·A + n_B·B)/N, and that
+    // of its (A − B)² in the pooled variance: (n_i/N)² σ²/n_i with σ² = (A − B)² / (1/n_A + 1/n_B).
+    let total = total as f64;
+    let terms: Vec<(f64, f64, f64)> = guided
         .iter()
         .map(|(it, _)| {
-            let n = it.spp() as f64;
-            // Var of the iteration's mean per (A − B)²: σ²/n with σ² = (A − B)² / (1/n_A + 1/n_B).
-            let var_scale = 1.0 / (1.0 / it.a.1 as f64 + 1.0 / it.b.1 as f64) / n;
-            (it.image(), n / total as f64, var_scale)
+            let (na, nb) = (it.a.1 as f64, it.b.1 as f64);
+            let n = na + nb;
+            let var = (n / total).powi(2) / (1.0 / na + 1.0 / nb) / n;
+            (na / total, nb / total, var)
         })
         .collect();
     let pixels = u.rgb.len();
@@ -61,12 +63,12 @@ pub fn cross_check(
     for p in 0..pixels {
         let mut g = [0.0f64; 3];
         let mut var_g = 0.0f64;
-        for ((img, w, var_scale), (it, _)) in images.iter().zip(guided) {
+        for ((wa, wb, var), (it, _)) in terms.iter().zip(guided) {
             let (a, b) = (it.a.0.rgb[p], it.b.0.rgb[p]);
             for c in 0..3 {
-                g[c] += w * img.rgb[p][c] as f64;
-                let d = a[c] as f64 - b[c] as f64;
-                var_g += w * w * d * d * var_scale;
+                let (a, b) = (a[c] as f64, b[c] as f64);
+                g[c] += wa * a + wb * b;
+                var_g += var * (a - b) * (a - b);
             }
         }
         let var_g = var_g / 3.0;
@@ -96,21 +98,20 @@ pub fn cross_check(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::film::Image;
 
-    /// Independent N(0, 1) variates (SplitMix64 and Box–Muller), reproducible.
-    struct Normals(u64);
+    use focal_testkit::TestRng;
+
+    /// Independent N(0, 1) variates (Box–Muller), reproducible.
+    struct Normals(TestRng);
 
     impl Normals {
-        fn uniform(&mut self) -> f64 {
-            self.0 = self.0.wrapping_add(0x9e37_79b9_7f4a_7c15);
-            let mut z = self.0;
-            z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
-            z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
-            ((z ^ (z >> 31)) >> 11) as f64 / (1u64 << 53) as f64
+        fn new(seed: u64) -> Self {
+            Normals(TestRng::new(seed))
         }
 
         fn next(&mut self) -> f64 {
-            let (u1, u2) = (1.0 - self.uniform(), self.uniform());
+            let (u1, u2) = (1.0 - self.0.next_f64(), self.0.next_f64());
             (-2.0 * u1.ln()).sqrt() * (std::f64::consts::TAU * u2).cos()
         }
     }
@@ -145,7 +146,7 @@ mod tests {
 
     #[test]
     fn recovers_both_estimators_relative_errors() {
-        let mut rng = Normals(7);
+        let mut rng = Normals::new(7);
         let norm = MEAN * MEAN + RELATIVE_EPSILON;
         // Unguided: 8 spp of per-sample σ 0.4 in 1 s; guided: two iterations of 4 spp, σ 0.2, 1 s each.
         let u_sigma2 = 0.4f64 * 0.4 / 8.0;
@@ -168,7 +169,7 @@ mod tests {
     fn sees_what_the_unguided_halves_miss() {
         // The unguided image lacks a rare contribution everywhere (too dark by 0.1, its halves agree):
         // its error is that offset, found against the unbiased guided images.
-        let mut rng = Normals(11);
+        let mut rng = Normals::new(11);
         let unguided = IterationImage {
             a: (noisy(&mut rng, -0.1, 0.0), 4),
             b: (noisy(&mut rng, -0.1, 0.0), 4),
@@ -183,7 +184,7 @@ mod tests {
 
     #[test]
     fn needs_samples_and_halves() {
-        let mut rng = Normals(3);
+        let mut rng = Normals::new(3);
         let u = iteration(&mut rng, 4, 0.1);
         let g = iteration(&mut rng, 4, 0.1);
         let empty = IterationImage {

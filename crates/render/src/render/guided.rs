@@ -321,7 +321,6 @@ pub fn render_guided(
                 Plan::Until(deadline) => match next_pass_spp(pass_spp, count, pass_start, deadline)
                 {
                     Some(n) => n,
-                    // The first iteration gets two samples per pixel, so that its halves give a variance.
                     // Every training iteration gets two samples per pixel, so that its halves give a
                     // variance (the first one's for the weights, the guided ones' for the fallback).
                     None if training && halves && runner.spp_done() < 2 => 1,
