@@ -4,7 +4,7 @@ use crate::flip::ldr_flip;
 use anyhow::{Context, Result};
 use clap::Args;
 use focal_render::film::Image;
-use focal_render::metrics::{image_errors, DEFAULT_REL_EPSILON};
+use focal_render::metrics::{image_errors, DEFAULT_REL_EPSILON, FIREFLY_PIXEL_FRACTION};
 use std::io::Write;
 use std::path::PathBuf;
 
@@ -51,6 +51,14 @@ pub fn run(a: MetricsArgs) -> Result<()> {
         text += &format!(
             "({}% largest per-pixel errors dropped)\n",
             e.outlier_fraction * 100.0
+        );
+    }
+    if !a.json {
+        text += &format!(
+            "relMSE, all pixels {:.6e} ({:.1}% of it in the {}% largest per-pixel errors)\n",
+            e.rel_mse_all,
+            e.rel_mse_top_share * 100.0,
+            FIREFLY_PIXEL_FRACTION * 100.0
         );
     }
     // A closed pipe (`| head`) is the reader's choice, not an error worth a panic.

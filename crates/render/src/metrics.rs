@@ -10,6 +10,11 @@ use crate::film::Image;
 /// The ε of relMSE used throughout the project unless stated.
 pub const DEFAULT_REL_EPSILON: f64 = 1e-2;
 
+/// The share of pixels whose part of the relMSE [`ImageErrors::rel_mse_top_share`] reports (the
+/// literature's 0.1 % outliers): when it holds most of the error, the error is a few fireflies, and
+/// one render says little about another with a different seed.
+pub const FIREFLY_PIXEL_FRACTION: f64 = 1e-3;
+
 /// Errors of an image against a reference.
 #[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct ImageErrors {
@@ -25,6 +30,11 @@ pub struct ImageErrors {
     pub epsilon: f64,
     /// The fraction of the largest per-pixel errors dropped before averaging.
     pub outlier_fraction: f64,
+    /// relMSE over all pixels (equal to `rel_mse` when no outliers are dropped).
+    pub rel_mse_all: f64,
+    /// The share of the all-pixel relMSE held by the [`FIREFLY_PIXEL_FRACTION`] largest per-pixel
+    /// errors (at least one pixel).
+    pub rel_mse_top_share: f64,
 }
 
 /// Per-pixel errors (averaged over the channels) of `image` against `reference`.
@@ -93,6 +103,22 @@ pub fn trimmed_mean(values: &[f64], fraction: f64) -> f64 {
     v[..keep].iter().sum::<f64>() / keep as f64
 }
 
+/// The share of the sum of non-negative `values` held by the `fraction` largest (at least one); 0 when
+/// the sum is 0.
+pub fn top_share(values: &[f64], fraction: f64) -> f64 {
+    let total: f64 = values.iter().sum();
+    if values.is_empty() || !(total > 0.0) {
+        return 0.0;
+    }
+    // As many as `trimmed_mean` drops, so that the share tells how much trimming removed.
+    let count = (((values.len() as f64) * fraction.clamp(0.0, 1.0)).floor() as usize)
+        .clamp(1, values.len());
+    let mut v = values.to_vec();
+    let split = values.len() - count;
+    v.select_nth_unstable_by(split, |a, b| a.total_cmp(b));
+    v[split..].iter().sum::<f64>() / total
+}
+
 /// All metrics of `image` against `reference`.
 pub fn image_errors(
     image: &Image,
@@ -108,6 +134,8 @@ pub fn image_errors(
         smape: trimmed_mean(&sape, outlier_fraction),
         epsilon,
         outlier_fraction,
+        rel_mse_all: trimmed_mean(&rel, 0.0),
+        rel_mse_top_share: top_share(&rel, FIREFLY_PIXEL_FRACTION),
     })
 }
 
@@ -119,6 +147,26 @@ mod tests {
         let mut img = Image::new(values.len() as u32, 1);
         img.rgb.copy_from_slice(values);
         img
+    }
+
+    #[test]
+    fn top_share_tells_fireflies_from_even_noise() {
+        let even = vec![1.0; 10_000];
+        assert!((top_share(&even, 1e-3) - 1e-3).abs() < 1e-12);
+        let mut firefly = vec![1e-4; 10_000];
+        firefly[4321] = 100.0;
+        assert!(top_share(&firefly, 1e-3) > 0.99);
+        // At least one value counts; an all-zero error has no share.
+        assert_eq!(top_share(&[0.0, 3.0], 0.0), 1.0);
+        assert_eq!(top_share(&[0.0, 0.0], 1e-3), 0.0);
+        assert_eq!(top_share(&[], 1e-3), 0.0);
+        // The image metrics carry the all-pixel relMSE and its share next to the trimmed one.
+        let r = image(&[[1.0; 3]; 4]);
+        let x = image(&[[1.0; 3], [1.0; 3], [1.0; 3], [3.0; 3]]);
+        let e = image_errors(&x, &r, 0.0, 0.25).unwrap();
+        assert_eq!(e.rel_mse, 0.0);
+        assert!((e.rel_mse_all - 1.0).abs() < 1e-12, "{e:?}");
+        assert_eq!(e.rel_mse_top_share, 1.0);
     }
 
     #[test]
