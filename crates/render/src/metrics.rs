@@ -88,12 +88,17 @@ fn finite(v: f32) -> f64 {
     }
 }
 
+/// How many of `len` values make the `fraction` largest (rounded down).
+fn largest_count(len: usize, fraction: f64) -> usize {
+    ((len as f64) * fraction.clamp(0.0, 1.0)).floor() as usize
+}
+
 /// The mean of `values` after dropping the `fraction` largest.
 pub fn trimmed_mean(values: &[f64], fraction: f64) -> f64 {
     if values.is_empty() {
         return 0.0;
     }
-    let drop = ((values.len() as f64) * fraction.clamp(0.0, 1.0)).floor() as usize;
+    let drop = largest_count(values.len(), fraction);
     let keep = values.len() - drop.min(values.len() - 1);
     if drop == 0 {
         return values.iter().sum::<f64>() / values.len() as f64;
@@ -111,8 +116,7 @@ pub fn top_share(values: &[f64], fraction: f64) -> f64 {
         return 0.0;
     }
     // As many as `trimmed_mean` drops, so that the share tells how much trimming removed.
-    let count = (((values.len() as f64) * fraction.clamp(0.0, 1.0)).floor() as usize)
-        .clamp(1, values.len());
+    let count = largest_count(values.len(), fraction).clamp(1, values.len());
     let mut v = values.to_vec();
     let split = values.len() - count;
     v.select_nth_unstable_by(split, |a, b| a.total_cmp(b));

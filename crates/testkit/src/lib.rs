@@ -148,6 +148,12 @@ impl TestRng {
         let bits = ((self.next_u32() as u64) << 21) ^ (self.next_u32() as u64 >> 11);
         bits as f64 * (1.0 / (1u64 << 53) as f64)
     }
+
+    /// A standard normal variate (Box–Muller, two [`TestRng::next_f64`] draws).
+    pub fn next_normal(&mut self) -> f64 {
+        let (u1, u2) = (1.0 - self.next_f64(), self.next_f64());
+        (-2.0 * u1.ln()).sqrt() * (std::f64::consts::TAU * u2).cos()
+    }
 }
 
 /// Direction with cos θ = `z` and azimuth `phi`.

@@ -102,36 +102,22 @@ mod tests {
 
     use focal_testkit::TestRng;
 
-    /// Independent N(0, 1) variates (Box–Muller), reproducible.
-    struct Normals(TestRng);
-
-    impl Normals {
-        fn new(seed: u64) -> Self {
-            Normals(TestRng::new(seed))
-        }
-
-        fn next(&mut self) -> f64 {
-            let (u1, u2) = (1.0 - self.0.next_f64(), self.0.next_f64());
-            (-2.0 * u1.ln()).sqrt() * (std::f64::consts::TAU * u2).cos()
-        }
-    }
-
     const SIDE: u32 = 128;
     const MEAN: f64 = 0.5;
 
     /// An image of `MEAN` plus `offset` plus noise of standard deviation `sigma` in every channel.
-    fn noisy(rng: &mut Normals, offset: f64, sigma: f64) -> Image {
+    fn noisy(rng: &mut TestRng, offset: f64, sigma: f64) -> Image {
         let mut img = Image::new(SIDE, SIDE);
         for p in &mut img.rgb {
             for c in p.iter_mut() {
-                *c = (MEAN + offset + sigma * rng.next()) as f32;
+                *c = (MEAN + offset + sigma * rng.next_normal()) as f32;
             }
         }
         img
     }
 
     /// An iteration of `spp` samples of per-sample standard deviation `sigma`, as two equal halves.
-    fn iteration(rng: &mut Normals, spp: u32, sigma: f64) -> IterationImage {
+    fn iteration(rng: &mut TestRng, spp: u32, sigma: f64) -> IterationImage {
         let half = spp / 2;
         let s = sigma / (half as f64).sqrt();
         IterationImage {
@@ -146,7 +132,7 @@ mod tests {
 
     #[test]
     fn recovers_both_estimators_relative_errors() {
-        let mut rng = Normals::new(7);
+        let mut rng = TestRng::new(7);
         let norm = MEAN * MEAN + RELATIVE_EPSILON;
         // Unguided: 8 spp of per-sample σ 0.4 in 1 s; guided: two iterations of 4 spp, σ 0.2, 1 s each.
         let u_sigma2 = 0.4f64 * 0.4 / 8.0;
@@ -169,7 +155,7 @@ mod tests {
     fn sees_what_the_unguided_halves_miss() {
         // The unguided image lacks a rare contribution everywhere (too dark by 0.1, its halves agree):
         // its error is that offset, found against the unbiased guided images.
-        let mut rng = Normals::new(11);
+        let mut rng = TestRng::new(11);
         let unguided = IterationImage {
             a: (noisy(&mut rng, -0.1, 0.0), 4),
             b: (noisy(&mut rng, -0.1, 0.0), 4),
@@ -184,7 +170,7 @@ mod tests {
 
     #[test]
     fn needs_samples_and_halves() {
-        let mut rng = Normals::new(3);
+        let mut rng = TestRng::new(3);
         let u = iteration(&mut rng, 4, 0.1);
         let g = iteration(&mut rng, 4, 0.1);
         let empty = IterationImage {

@@ -249,8 +249,6 @@ pub fn render_guided(
     let mut total_spp = 0u32;
     let mut fallback: Option<Fallback> = None;
     let fell_back = |f: &Option<Fallback>| f.is_some_and(|f| f.fell_back);
-    // Render time and guidedness of each image in `images`.
-    let mut image_times: Vec<(f64, bool)> = Vec::new();
     let plans = training_plans
         .into_iter()
         .chain(std::iter::once(final_plan));
@@ -333,7 +331,6 @@ pub fn render_guided(
         total_spp += spp;
         rejected += runner.rejected_samples();
         if spp > 0 {
-            image_times.push((render_s, guided));
             images.push(match runner.develop_halves() {
                 Some([a, b]) => IterationImage { a, b },
                 None => IterationImage {
@@ -342,29 +339,45 @@ pub fn render_guided(
                 },
             });
         }
+        stats.push(IterationStats {
+            index,
+            guided,
+            training,
+            spp,
+            render_s,
+            samples_per_s: (pixels * spp as u64) as f64 / render_s.max(1e-9),
+            segments,
+            moments,
+            record_s,
+            update: None,
+            weight: 0.0,
+            cross_check: None,
+        });
         let mut check = None;
-        if training && guided && spp > 0 && image_times.first().is_some_and(|t| !t.1) {
-            let guided_images: Vec<(&IterationImage, f64)> = images
-                .iter()
-                .zip(&image_times)
-                .filter(|(_, t)| t.1)
-                .map(|(i, t)| (i, t.0))
-                .collect();
-            check = cross_check(&images[0], image_times[0].0, &guided_images);
-            let checking = settings.fallback
-                && halves
-                && matches!(settings.budget, TrainingBudget::Time { .. })
-                && !settings.pretrained
-                && fallback.is_none();
-            if let (true, Some(c)) = (checking, check) {
-                let checks = FALLBACK_THRESHOLDS.len();
-                let threshold = FALLBACK_THRESHOLDS[(guided_images.len() - 1).min(checks - 1)];
-                let fell = c.inefficiency_ratio > threshold;
-                if fell || guided_images.len() >= checks {
-                    fallback = Some(Fallback {
-                        check: c,
-                        fell_back: fell,
-                    });
+        if training && guided && spp > 0 {
+            // Images exist for the iterations that rendered, in order.
+            let mut rendered = stats.iter().filter(|s| s.spp > 0).zip(&images);
+            if let Some((first, unguided)) = rendered.next().filter(|(s, _)| !s.guided) {
+                let guided_images: Vec<(&IterationImage, f64)> = rendered
+                    .filter(|(s, _)| s.guided)
+                    .map(|(s, i)| (i, s.render_s))
+                    .collect();
+                check = cross_check(unguided, first.render_s, &guided_images);
+                let checking = settings.fallback
+                    && halves
+                    && matches!(settings.budget, TrainingBudget::Time { .. })
+                    && !settings.pretrained
+                    && fallback.is_none();
+                if let (true, Some(c)) = (checking, check) {
+                    let checks = FALLBACK_THRESHOLDS.len();
+                    let threshold = FALLBACK_THRESHOLDS[(guided_images.len() - 1).min(checks - 1)];
+                    let fell = c.inefficiency_ratio > threshold;
+                    if fell || guided_images.len() >= checks {
+                        fallback = Some(Fallback {
+                            check: c,
+                            fell_back: fell,
+                        });
+                    }
                 }
             }
         }
@@ -381,20 +394,10 @@ pub fn render_guided(
             }
             _ => None,
         };
-        stats.push(IterationStats {
-            index,
-            guided,
-            training,
-            spp,
-            render_s,
-            samples_per_s: (pixels * spp as u64) as f64 / render_s.max(1e-9),
-            segments,
-            moments,
-            record_s,
-            update,
-            weight: 0.0,
-            cross_check: check,
-        });
+        if let Some(last) = stats.last_mut() {
+            last.update = update;
+            last.cross_check = check;
+        }
     }
 
     let weights = match settings.combine {
