@@ -93,10 +93,12 @@ pub struct TrainingSegment {
     /// True if the endpoint x_{k+1} is glossy (min roughness < 0.3): a virtual image is possible, so the
     /// whole forward line is a converging candidate and the backward line a diverging one.
     pub glossy_endpoint: bool,
-    /// True if the endpoint x_{k+1} also transmits (glass), where a guide may choose not to extend the
-    /// line through it (see [`crate::GmmConfig::extend_through_transmission`]).
+    /// True if the endpoint x_{k+1} is glossy glass through which the path refracted and left at more
+    /// than about 10° from this segment's direction (a lens or a ball rather than a window): the line
+    /// through x_{k+1} then does not point where the light came from, and a guide may train on the
+    /// segment alone (see [`crate::GmmConfig::extend_through_refraction`]).
     #[serde(default)]
-    pub transmissive_endpoint: bool,
+    pub refracting_endpoint: bool,
     /// The part of `weight` that is emission found at x_{k+1} itself, MIS-weighted against next-event
     /// estimation (0 if x_{k+1} emits nothing, or through a delta vertex where NEE cannot compete).
     pub emitted: f32,

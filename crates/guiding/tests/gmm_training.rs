@@ -88,7 +88,7 @@ fn virtual_image_batch(rng: &mut Rng, n: usize) -> Vec<TrainingSegment> {
                 guide_pdf: 0.0,
                 guide_fraction: 0.0,
                 glossy_endpoint: true,
-                transmissive_endpoint: false,
+                refracting_endpoint: false,
                 emitted: 0.0,
                 emitter_pdf: 0.0,
                 pixel_weight: 1.0,
@@ -308,7 +308,7 @@ fn near_duplicate_components_merge_but_not_below_k_min() {
                 guide_pdf: 0.0,
                 guide_fraction: 0.0,
                 glossy_endpoint: false,
-                transmissive_endpoint: false,
+                refracting_endpoint: false,
                 emitted: 0.0,
                 emitter_pdf: 0.0,
                 pixel_weight: 1.0,
@@ -369,25 +369,25 @@ fn the_diverging_mixture_learns_a_virtual_image_and_p_div_its_mass_share() {
 }
 
 #[test]
-fn lines_through_glass_are_extended_unless_told_not_to() {
-    // The virtual-image batch with transmissive endpoints: by default the backward lines meet at the
-    // virtual image as for a mirror; without `extend_through_transmission` each is its finite segment
-    // (converging only, p_div 0).
+fn lines_through_refracting_glass_are_segments_unless_told_otherwise() {
+    // The virtual-image batch with refracting endpoints: by default each is its finite segment
+    // (converging only, p_div 0); with `extend_through_refraction` the backward lines meet at the
+    // virtual image as for a mirror.
     let glass = |rng: &mut Rng| {
         let mut b = virtual_image_batch(rng, 10_000);
-        b.iter_mut().for_each(|s| s.transmissive_endpoint = true);
+        b.iter_mut().for_each(|s| s.refracting_endpoint = true);
         b
     };
-    let config = GmmConfig {
-        extend_through_transmission: false,
-        ..GmmConfig::default()
-    };
-    let mut plain = GmmGuide::new(scene_box(), config).unwrap();
+    let mut plain = GmmGuide::new(scene_box(), GmmConfig::default()).unwrap();
     plain.record(&glass(&mut Rng(6)));
     let s = plain.update(&context(0, 9));
     assert_eq!(detail(&s, "rays_div"), 0.0);
     assert_eq!(plain.p_div(), 0.0);
-    let mut extended = GmmGuide::new(scene_box(), GmmConfig::default()).unwrap();
+    let config = GmmConfig {
+        extend_through_refraction: true,
+        ..GmmConfig::default()
+    };
+    let mut extended = GmmGuide::new(scene_box(), config).unwrap();
     extended.record(&glass(&mut Rng(6)));
     let s = extended.update(&context(0, 9));
     assert_eq!(detail(&s, "rays_div"), 10_000.0);
@@ -593,7 +593,7 @@ fn degenerate_inputs_give_finite_models() {
         guide_pdf: 0.0,
         guide_fraction: 0.0,
         glossy_endpoint: glossy,
-        transmissive_endpoint: false,
+        refracting_endpoint: false,
         emitted: 0.0,
         emitter_pdf: 0.0,
         pixel_weight: 1.0,

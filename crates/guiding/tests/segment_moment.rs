@@ -61,7 +61,7 @@ fn segment(u: f64, alpha0: f64) -> TrainingSegment {
         guide_pdf: pg as f32,
         guide_fraction: alpha0 as f32,
         glossy_endpoint: false,
-        transmissive_endpoint: false,
+        refracting_endpoint: false,
         emitted: emitted as f32,
         emitter_pdf: pn as f32,
         pixel_weight: 1.0,

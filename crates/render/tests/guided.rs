@@ -451,3 +451,71 @@ fn training_segments_carry_emission_and_pixel_weights() {
         .fold((f32::MAX, 0.0f32), |(a, b), &w| (a.min(w), b.max(w)));
     assert!(lo < 0.5 && hi > 0.7, "pixel weights span [{lo}, {hi}]");
 }
+
+/// Segments from a floor up into glass are told apart by what the glass did to the path: a ball bends
+/// the paths that refract through it (the straight line through it does not point to where their light
+/// came from), a thin pane does not (only the paths reflected inside it leave in another direction).
+#[test]
+fn segments_into_a_glass_ball_refract_and_into_a_pane_do_not() {
+    let xml = format!(
+        r#"<scene version="3.0.0">
+    <sensor type="perspective">
+        <float name="fov" value="50"/>
+        <transform name="to_world"><lookat origin="0, 0, 6" target="0, 0, 0" up="0, 1, 0"/></transform>
+        <film type="hdrfilm"><integer name="width" value="24"/><integer name="height" value="24"/></film>
+    </sensor>
+    <shape type="rectangle">
+        <transform name="to_world"><scale value="3"/></transform>
+        <bsdf type="diffuse"><rgb name="reflectance" value="0.8"/></bsdf>
+    </shape>
+    <shape type="sphere">
+        <point name="center" x="-1" y="0" z="0.6"/>
+        <float name="radius" value="0.5"/>
+        <bsdf type="dielectric"/>
+    </shape>
+    <shape type="cube">
+        <transform name="to_world"><scale x="0.6" y="0.6" z="0.03"/><translate x="1" z="0.6"/></transform>
+        <bsdf type="dielectric"/>
+    </shape>
+    {SKY}
+</scene>"#
+    );
+    let scene = load_str(&xml, std::path::Path::new("."));
+    let mut guide = RecordingGuide {
+        inner: guide_for(GuidingMethod::Gmm, &scene),
+        iteration: 0,
+        seen: Vec::new(),
+    };
+    let s = guided_settings(16, 3, 0, Combine::InverseVariance);
+    let out = render_with(&scene, Some(&mut guide), &s);
+    assert!(all_finite(&out.image));
+    let (mut ball, mut ball_bent, mut pane, mut pane_bent) = (0usize, 0usize, 0usize, 0usize);
+    for (_, seg) in &guide.seen {
+        if !seg.distance.is_finite() {
+            continue;
+        }
+        let e = seg.origin + seg.direction * seg.distance;
+        if (e.distance(glam::Vec3::new(-1.0, 0.0, 0.6)) - 0.5).abs() < 1e-2 {
+            assert!(seg.glossy_endpoint);
+            ball += 1;
+            ball_bent += seg.refracting_endpoint as usize;
+        } else if (e.x - 1.0).abs() < 0.61 && e.y.abs() < 0.61 && (e.z - 0.6).abs() < 0.04 {
+            assert!(seg.glossy_endpoint);
+            pane += 1;
+            pane_bent += seg.refracting_endpoint as usize;
+        } else {
+            assert!(!seg.refracting_endpoint, "{seg:?}");
+        }
+    }
+    eprintln!("ball: {ball_bent} of {ball} refracting; pane: {pane_bent} of {pane}");
+    assert!(ball >= 100 && pane >= 100, "ball {ball}, pane {pane}");
+    // Measured: 240 of 277 and 29 of 242 (the pane's are reflected inside it, more at oblique angles).
+    assert!(
+        ball_bent * 10 > ball * 7,
+        "ball: {ball_bent} of {ball} refracting"
+    );
+    assert!(
+        pane_bent * 5 < pane,
+        "pane: {pane_bent} of {pane} refracting"
+    );
+}

@@ -103,15 +103,12 @@ pub struct GmmConfig {
     /// whole scene: the per-vertex second moment prefers 0.4–0.5 on torus and shaded lights, where
     /// relMSE rewards 0.75.
     pub learn_selection: bool,
-    /// Treat a glossy endpoint that also transmits (glass) like a mirror: train on the whole line
-    /// through it (forward converging, backward diverging), as Rath et al. do for every glossy endpoint.
-    /// On by default. Off, the segments that end on glass are trained on as segments: a glass ball
-    /// focuses the light to a real image on the near side, where those segments already cross, while the
-    /// lines continued through the glass fan out beyond it and can draw the converging mixture into long
-    /// components pointing away from the scene. Off, the caustic's relMSE fell from 0.115–0.186 to
-    /// 0.060–0.098 (20 s, seeds 0–2; the octree 0.080–0.101), but the lens focus (1.07–3.03 against
-    /// 0.87–1.37), glass caustic and torus got worse: a lens's lines do cross behind it.
-    pub extend_through_transmission: bool,
+    /// Also train on the whole line through glass that bent the path by refraction
+    /// ([`crate::TrainingSegment::refracting_endpoint`]: a ball or a lens, not a window), as Rath et al.
+    /// do for every glossy endpoint. Off by default: such segments are trained on as segments. Behind a
+    /// window the light is where the line through the glass points, so those lines are always extended;
+    /// behind a lens it is not, and the lines continued through a glass ball fan out beyond it.
+    pub extend_through_refraction: bool,
 }
 
 impl Default for GmmConfig {
@@ -136,7 +133,7 @@ impl Default for GmmConfig {
             seed: 0x6d6d_f0ca,
             guide_fraction: 0.75,
             learn_selection: false,
-            extend_through_transmission: true,
+            extend_through_refraction: false,
         }
     }
 }
@@ -813,7 +810,7 @@ impl GuidingDistribution for GmmGuide {
                 continue;
             }
             if s.glossy_endpoint
-                && (self.config.extend_through_transmission || !s.transmissive_endpoint)
+                && (self.config.extend_through_refraction || !s.refracting_endpoint)
             {
                 self.push_ray(false, o, d, f64::INFINITY, c, pdf);
                 self.push_ray(true, o, -d, f64::INFINITY, c, pdf);

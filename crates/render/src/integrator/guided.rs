@@ -21,6 +21,11 @@ use focal_guiding::{
 /// a glossy endpoint can form a virtual image, so the whole line through it is a focal candidate.
 pub const GLOSSY_ROUGHNESS: f32 = 0.3;
 
+/// Cosine of the largest angle between the direction a path enters a run of glass vertices with and the
+/// direction it leaves them with for the glass to count as a window rather than a lens: behind a pane
+/// the light source is where the straight line through the glass points, behind a ball it is not.
+pub const STRAIGHT_THROUGH_COS: f32 = 0.985;
+
 /// How a guided path decides to terminate.
 ///
 /// Mitsuba's throughput-based roulette kills exactly the low-throughput prefixes that guiding makes
@@ -111,6 +116,23 @@ struct PendingSegment {
     segment: TrainingSegment,
     /// The path's estimate just before the segment was sampled: everything added later flows through it.
     result_before: Rgb,
+    /// The endpoint is glossy glass and the path has not yet left the glass: whether the straight line
+    /// through it points where the light came from is not known yet.
+    in_glass: bool,
+    /// The path refracted (η ≠ 1) since this segment's endpoint.
+    refracted: bool,
+}
+
+/// Settles `refracting_endpoint` for the segments `pending[from..]` that ended on glass, now that the path
+/// has left the glass in direction `d_out` (to a non-glass vertex, or out of the scene): the path bent
+/// by refraction if it refracted on the way and left at more than arccos([`STRAIGHT_THROUGH_COS`]) from
+/// the segment's direction. Reflection off glass keeps the line (a mirror's virtual image).
+fn leave_glass(pending: &mut [PendingSegment], from: usize, d_out: glam::Vec3) {
+    for p in pending.iter_mut().skip(from).filter(|p| p.in_glass) {
+        p.in_glass = false;
+        p.segment.refracting_endpoint =
+            p.refracted && p.segment.direction.dot(d_out) < STRAIGHT_THROUGH_COS;
+    }
 }
 
 /// The guide of one vertex and the probability α of sampling it rather than the BSDF.
@@ -174,6 +196,8 @@ impl Integrator for GuidedPathIntegrator<'_> {
         let mut pending: Vec<PendingSegment> = Vec::new();
         let mut vertex = GuideVertex::default();
         let mut run = PassThroughRun::default();
+        // The first pending segment that may still be inside a run of glass vertices.
+        let mut glass_from: Option<usize> = None;
         let roulette = match (self.settings.roulette, self.guide) {
             (Roulette::Albedo, None) => Roulette::Throughput,
             (r, _) => r,
@@ -196,6 +220,9 @@ impl Integrator for GuidedPathIntegrator<'_> {
                         result += emitted;
                         note_emission(&mut pending, emitted, nee_pdf);
                     }
+                }
+                if let Some(from) = glass_from.take() {
+                    leave_glass(&mut pending, from, ray.d);
                 }
                 if self.settings.train_escaped {
                     if let Some(last) = pending.last_mut() {
@@ -236,11 +263,22 @@ impl Integrator for GuidedPathIntegrator<'_> {
                 continue;
             };
             let distance = run.end(si.t);
+            let glossy = bsdf.min_roughness() < GLOSSY_ROUGHNESS;
+            let glass = glossy && bsdf.has_transmission();
+            if !glass {
+                if let Some(from) = glass_from.take() {
+                    leave_glass(&mut pending, from, ray.d);
+                }
+            }
+            let open = pending.len();
             if let Some(last) = pending.last_mut() {
                 if last.segment.distance < 0.0 {
                     last.segment.distance = distance;
-                    last.segment.glossy_endpoint = bsdf.min_roughness() < GLOSSY_ROUGHNESS;
-                    last.segment.transmissive_endpoint = bsdf.has_transmission();
+                    last.segment.glossy_endpoint = glossy;
+                    if glass {
+                        last.in_glass = true;
+                        glass_from.get_or_insert(open - 1);
+                    }
                 }
             }
             if depth == 0 {
@@ -280,6 +318,11 @@ impl Integrator for GuidedPathIntegrator<'_> {
             let Some(step) = sample_direction(bsdf, guide, &vertex, &ctx, &si, wi, sampler) else {
                 break;
             };
+            if let Some(from) = glass_from {
+                if step.eta != 1.0 {
+                    pending[from..].iter_mut().for_each(|p| p.refracted = true);
+                }
+            }
             if self.record && !step.delta {
                 pending.push(PendingSegment {
                     segment: TrainingSegment {
@@ -292,12 +335,14 @@ impl Integrator for GuidedPathIntegrator<'_> {
                         guide_pdf: step.guide_pdf,
                         guide_fraction: guide.map_or(0.0, |g| g.alpha),
                         glossy_endpoint: false,
-                        transmissive_endpoint: false,
+                        refracting_endpoint: false,
                         emitted: 0.0,
                         emitter_pdf: 0.0,
                         pixel_weight: 1.0,
                     },
                     result_before: result,
+                    in_glass: false,
+                    refracted: false,
                 });
             }
             throughput *= step.weight;
