@@ -93,6 +93,10 @@ pub struct TrainingSegment {
     /// True if the endpoint x_{k+1} is glossy (min roughness < 0.3): a virtual image is possible, so the
     /// whole forward line is a converging candidate and the backward line a diverging one.
     pub glossy_endpoint: bool,
+    /// True if the vertex x_k itself is glossy (min roughness below the glossy threshold), where a
+    /// learned selection fraction may not apply.
+    #[serde(default)]
+    pub glossy_origin: bool,
     /// True if the endpoint x_{k+1} is glossy glass through which the path refracted and left at more
     /// than about 10° from this segment's direction (a lens or a ball rather than a window): the line
     /// through x_{k+1} then does not point where the light came from, and a guide may train on the
@@ -203,9 +207,11 @@ pub trait GuidingDistribution: Send + Sync {
     /// the distribution has its own (a fixed one, or one learned per region: [`crate::SelectionGrid`]);
     /// `None` leaves the renderer's fixed fraction. At 0 the renderer samples the BSDF alone, except at a random
     /// [`crate::EXPLORATION_PROBABILITY`] share of such vertices, where it uses
-    /// [`crate::EXPLORATION_FRACTION`] so that the distribution keeps learning there.
-    fn selection_probability(&self, x: Vec3) -> Option<f32> {
-        let _ = x;
+    /// [`crate::EXPLORATION_FRACTION`] so that the distribution keeps learning there. `glossy` tells a
+    /// vertex whose BSDF has a narrow lobe (min roughness below the glossy threshold), where a learned
+    /// fraction may not apply.
+    fn selection_probability(&self, x: Vec3, glossy: bool) -> Option<f32> {
+        let _ = (x, glossy);
         None
     }
 

@@ -18,6 +18,6 @@ pub use distribution::{
 };
 pub use gmm::{GmmConfig, GmmGuide};
 pub use selection::{
-    SelectionConfig, SelectionGrid, SelectionSummary, EXPLORATION_FRACTION,
+    SelectionConfig, SelectionGrid, SelectionRule, SelectionSummary, EXPLORATION_FRACTION,
     EXPLORATION_PROBABILITY, SELECTION_CANDIDATES,
 };

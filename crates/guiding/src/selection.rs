@@ -18,6 +18,17 @@
 //! share of them it samples with α = [`EXPLORATION_FRACTION`], and only those segments teach the cell.
 //! A random per-vertex α keeps the estimator unbiased: for each α the one-sample MIS weights sum to 1.
 //!
+//! A second rule ([`SelectionRule::ContributionShare`]) needs first moments only. Split the directions
+//! at a vertex into those the guide covers and the rest; if the integrand f·L carries a share s of its
+//! integral in the first and each part is shaped like the pdf that covers it, the one-sample mixture's
+//! second moment is s²/α + (1 − s)²/(1 − α), least at α = s. Each guided segment estimates s without
+//! reweighting: E[c·h] / E[c] with h = p_g/(p_g + p_b) the share of its direction the guide covers
+//! (c holds 1/p₀, so Σ c·h over the cell's segments estimates the integral of f·L·h). First moments
+//! are far less at the mercy of a few huge samples than second ones; the chosen α is clamped to
+//! [`SelectionConfig::min_fraction`, `SelectionConfig::max_fraction`]. The model ignores how spiky
+//! each part is: where the guide-covered light is a caustic that even the guide finds rarely (the
+//! shaded lights' mirrors), it chooses too little.
+//!
 //! The GMM guide uses it only on request (`GmmConfig::learn_selection`), and then only for the final
 //! render. Measured at equal time it did not beat the fixed fraction on focal scenes, with the absolute
 //! second moment (dominated by bright pixels) nor with the emission- and pixel-weighted one (see the GMM
@@ -38,9 +49,26 @@ pub const EXPLORATION_PROBABILITY: f32 = 0.125;
 /// The guide fraction of exploring vertices.
 pub const EXPLORATION_FRACTION: f32 = 0.5;
 
+/// How a cell of a [`SelectionGrid`] chooses its fraction from its segments.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub enum SelectionRule {
+    /// The candidate of [`SELECTION_CANDIDATES`] with the least importance-reweighted second moment.
+    SecondMoment,
+    /// The share of the cell's contribution arriving from directions the guide covers (see the module
+    /// documentation), clamped to [`SelectionConfig::min_fraction`, `SelectionConfig::max_fraction`].
+    ContributionShare,
+}
+
 /// Parameters of a [`SelectionGrid`].
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct SelectionConfig {
+    /// How a cell chooses.
+    pub rule: SelectionRule,
+    /// The least fraction [`SelectionRule::ContributionShare`] chooses: some guided samples remain
+    /// everywhere, so every cell keeps learning.
+    pub min_fraction: f32,
+    /// The largest fraction [`SelectionRule::ContributionShare`] chooses.
+    pub max_fraction: f32,
     /// Levels of the grid hierarchy: level l has 2^l cells per axis (so the finest has 2^(levels−1)).
     pub levels: u32,
     /// Guided segments with a positive contribution a cell needs before its own choice is used; cells
@@ -58,6 +86,9 @@ pub struct SelectionConfig {
 impl Default for SelectionConfig {
     fn default() -> Self {
         Self {
+            rule: SelectionRule::SecondMoment,
+            min_fraction: 0.1,
+            max_fraction: 0.75,
             levels: 5,
             min_segments: 128.0,
             decay: 0.5,
@@ -86,6 +117,12 @@ impl SelectionConfig {
         if !(0.0..1.0).contains(&self.default_fraction) {
             return fail("default_fraction must lie in [0, 1)");
         }
+        if !(0.0 < self.min_fraction
+            && self.min_fraction <= self.max_fraction
+            && self.max_fraction < 1.0)
+        {
+            return fail("need 0 < min_fraction <= max_fraction < 1");
+        }
         Ok(())
     }
 }
@@ -97,11 +134,14 @@ fn cells_before_level(level: u32) -> usize {
 }
 
 /// One cell's accumulated statistics: the number of segments and, per candidate, the summed second
-/// moments (Σ c²·p₀/p_a without emission and pixel weights).
+/// moments (Σ c²·p₀/p_a without emission and pixel weights), or for the share rule the summed
+/// pixel-weighted contributions Σ w·c and their guide-covered part Σ w·c·h.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
 struct CellSums {
     count: f64,
     moments: [f64; CANDIDATES],
+    contribution: f64,
+    covered: f64,
 }
 
 /// What an update of a [`SelectionGrid`] chose, for a render's record.
@@ -205,6 +245,28 @@ impl SelectionGrid {
             if !(s.guide_fraction > 0.0 && s.weight > 0.0 && s.origin.is_finite()) {
                 continue;
             }
+            if self.config.rule == SelectionRule::ContributionShare {
+                if s.glossy_origin {
+                    continue;
+                }
+                let (pg, pb) = (s.guide_pdf as f64, s.bsdf_pdf as f64);
+                let w = s.weight as f64 * s.pixel_weight as f64;
+                let valid = pg >= 0.0 && pb >= 0.0 && pg + pb > 0.0 && (pg + pb).is_finite();
+                if !(valid && w.is_finite()) {
+                    continue;
+                }
+                let covered = w * pg / (pg + pb);
+                self.pending += 1;
+                let cell = self.finest_cell(s.origin);
+                for level in 0..self.config.levels {
+                    let idx = self.cell_index(cell, level);
+                    let sums = &mut self.sums[idx];
+                    sums.count += 1.0;
+                    sums.contribution += w;
+                    sums.covered += covered;
+                }
+                continue;
+            }
             let mut terms = [0.0f64; CANDIDATES];
             let mut valid = true;
             for (t, &a) in terms.iter_mut().zip(&SELECTION_CANDIDATES) {
@@ -232,8 +294,17 @@ impl SelectionGrid {
         }
     }
 
-    /// The candidate with the least second moment in `sums` (α = 0 within the skip margin).
+    /// The cell's fraction: by the share rule, or the candidate with the least second moment in `sums`
+    /// (α = 0 within the skip margin).
     fn choose(&self, sums: &CellSums) -> f32 {
+        if self.config.rule == SelectionRule::ContributionShare {
+            let share = sums.covered / sums.contribution;
+            return if share.is_finite() {
+                (share as f32).clamp(self.config.min_fraction, self.config.max_fraction)
+            } else {
+                self.config.default_fraction
+            };
+        }
         let m = &sums.moments;
         let best = (1..CANDIDATES)
             .filter(|&i| m[i].is_finite())
@@ -288,6 +359,8 @@ impl SelectionGrid {
         }
         for s in &mut self.sums {
             s.count *= self.config.decay;
+            s.contribution *= self.config.decay;
+            s.covered *= self.config.decay;
             for m in &mut s.moments {
                 *m *= self.config.decay;
             }
@@ -328,11 +401,12 @@ impl SelectionGrid {
         if !self.table.iter().all(|a| (0.0..1.0).contains(a)) {
             return Err("selection grid holds a fraction outside [0, 1)".into());
         }
-        if !self
-            .sums
-            .iter()
-            .all(|s| s.count >= 0.0 && s.moments.iter().all(|m| *m >= 0.0))
-        {
+        if !self.sums.iter().all(|s| {
+            s.count >= 0.0
+                && s.moments.iter().all(|m| *m >= 0.0)
+                && s.contribution >= 0.0
+                && s.covered >= 0.0
+        }) {
             return Err("selection grid holds negative sums".into());
         }
         Ok(())

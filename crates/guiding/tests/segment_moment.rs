@@ -61,6 +61,7 @@ fn segment(u: f64, alpha0: f64) -> TrainingSegment {
         guide_pdf: pg as f32,
         guide_fraction: alpha0 as f32,
         glossy_endpoint: false,
+        glossy_origin: false,
         refracting_endpoint: false,
         emitted: emitted as f32,
         emitter_pdf: pn as f32,

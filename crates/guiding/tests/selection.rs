@@ -4,7 +4,7 @@
 mod gmm_common;
 
 use focal_guiding::{
-    Aabb3, GmmConfig, GmmGuide, GuidingDistribution, SelectionConfig, SelectionGrid,
+    Aabb3, GmmConfig, GmmGuide, GuidingDistribution, SelectionConfig, SelectionGrid, SelectionRule,
     TrainingSegment, UpdateContext,
 };
 use glam::Vec3;
@@ -49,6 +49,7 @@ fn segments(
                 guide_pdf: pg as f32,
                 guide_fraction: alpha0 as f32,
                 glossy_endpoint: false,
+                glossy_origin: false,
                 refracting_endpoint: false,
                 emitted: 0.0,
                 emitter_pdf: 0.0,
@@ -109,6 +110,39 @@ fn chooses_the_fraction_with_the_least_second_moment_per_region() {
     assert!(exact_best(0.5) > 0.0 && exact_best(0.5) < 0.9);
 }
 
+/// The share rule's estimate E[c·h]/E[c], h = p_g/(p_g + p_b), is the integrand's guide-covered share
+/// whatever fraction the segments were sampled with: for F = w·2·[u < ½] + (1 − w), h is 2/3 on [0, ½)
+/// and 0 above, so the share is (2/3)(w + (1 − w)/2) = (1 + w)/3, then clamped.
+#[test]
+fn the_share_rule_chooses_the_guide_covered_share_of_the_contribution() {
+    let config = SelectionConfig {
+        rule: SelectionRule::ContributionShare,
+        min_fraction: 0.4,
+        max_fraction: 0.6,
+        ..SelectionConfig::default()
+    };
+    for alpha0 in [0.25, 0.75] {
+        let mut grid = SelectionGrid::new(unit_box(), config).unwrap();
+        let mut rng = Rng(5);
+        let cases = [
+            (Vec3::new(0.05, 0.05, 0.05), 1.0, 0.6),
+            (Vec3::new(0.95, 0.05, 0.05), 0.5, 0.5),
+            (Vec3::new(0.05, 0.95, 0.05), 0.4, 1.4 / 3.0),
+            (Vec3::new(0.05, 0.05, 0.95), 0.0, 0.4),
+        ];
+        for (origin, w, _) in cases {
+            let f = move |u: f64| w * if u < 0.5 { 2.0 } else { 0.0 } + (1.0 - w);
+            grid.record(&segments(origin, 40_000, alpha0, f, &mut rng));
+        }
+        grid.update();
+        for (origin, w, expected) in cases {
+            let chosen = grid.fraction_at(origin).unwrap() as f64;
+            eprintln!("alpha0 {alpha0}, w = {w}: chose {chosen:.4}, expected {expected:.4}");
+            assert!((chosen - expected).abs() < 0.01, "w = {w}: {chosen}");
+        }
+    }
+}
+
 #[test]
 fn sparse_cells_use_the_coarser_levels_choice_and_unguided_segments_teach_nothing() {
     let config = SelectionConfig::default();
@@ -157,6 +191,7 @@ fn invalid_segments_are_ignored_and_the_choice_stays_finite() {
         guide_pdf: 1.0,
         guide_fraction: 0.5,
         glossy_endpoint: false,
+        glossy_origin: false,
         refracting_endpoint: false,
         emitted: 0.0,
         emitter_pdf: 0.0,
@@ -235,6 +270,7 @@ fn gmm_guide_learns_and_saves_its_selection() {
             guide_pdf: 3.9,
             guide_fraction: 0.5,
             glossy_endpoint: false,
+            glossy_origin: false,
             refracting_endpoint: false,
             emitted: 0.0,
             emitter_pdf: 0.0,
@@ -249,16 +285,17 @@ fn gmm_guide_learns_and_saves_its_selection() {
     };
     let learning = GmmConfig {
         learn_selection: true,
+        selection_by_share: false,
         ..GmmConfig::default()
     };
     let mut guide = GmmGuide::new(aabb, learning).unwrap();
     let x = Vec3::new(0.1, -0.2, -0.9);
     // Untrained, the guide asks for its fixed fraction.
-    assert_eq!(guide.selection_probability(x), Some(0.75));
+    assert_eq!(guide.selection_probability(x, false), Some(0.75));
     guide.record(&batch);
     // Before the final render, training keeps the fixed fraction although the grid has learned.
     guide.update(&ctx(false));
-    assert_eq!(guide.selection_probability(x), Some(0.75));
+    assert_eq!(guide.selection_probability(x, false), Some(0.75));
     guide.record(&batch);
     let stats = guide.update(&ctx(true));
     let detail = |name: &str| {
@@ -271,9 +308,9 @@ fn gmm_guide_learns_and_saves_its_selection() {
     };
     assert_eq!(detail("selection_segments"), 4000.0);
     assert!((detail("selection_mean") - 0.9).abs() < 1e-6);
-    assert_eq!(guide.selection_probability(x), Some(0.9));
+    assert_eq!(guide.selection_probability(x, false), Some(0.9));
     let loaded = GmmGuide::load(&guide.save()).unwrap();
-    assert_eq!(loaded.selection_probability(x), Some(0.9));
+    assert_eq!(loaded.selection_probability(x, false), Some(0.9));
     // Switched off (the default), the guide asks for its fixed fraction everywhere.
     let config = GmmConfig {
         guide_fraction: 0.6,
@@ -283,7 +320,7 @@ fn gmm_guide_learns_and_saves_its_selection() {
     fixed.record(&batch);
     fixed.update(&ctx(true));
     assert!(fixed.is_trained());
-    assert_eq!(fixed.selection_probability(x), Some(0.6));
+    assert_eq!(fixed.selection_probability(x, false), Some(0.6));
     assert!(GmmGuide::new(
         aabb,
         GmmConfig {

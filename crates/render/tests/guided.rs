@@ -172,6 +172,7 @@ fn inverse_variance_combination_keeps_the_mean() {
 fn learned_selection_keeps_the_mean() {
     let mut params = GuideParams::default();
     params.gmm.learn_selection = true;
+    params.gmm.selection_by_share = false;
     check_unbiased_with(
         GuidingMethod::Gmm,
         &params,
@@ -201,6 +202,44 @@ fn learned_selection_keeps_the_mean() {
         .map(|(_, v)| *v)
         .expect("the guide reports its selection");
     assert!(skip > 0.0 && skip < 1.0, "skip share {skip}");
+}
+
+/// The share rule's fractions (learned per cell on the floor, the fixed one on the glass ball) are a
+/// per-vertex α too: the caustic's mean must not move.
+#[test]
+fn share_rule_selection_keeps_the_mean() {
+    let mut params = GuideParams::default();
+    params.gmm.learn_selection = true;
+    check_unbiased_with(
+        GuidingMethod::Gmm,
+        &params,
+        "caustic",
+        "48",
+        64,
+        6,
+        Combine::Last,
+    );
+    let scene = load(&reference_scene("caustic"), &[("res", "48")]);
+    let mut guide = guide_with(GuidingMethod::Gmm, &scene, &params);
+    let out = render_with(
+        &scene,
+        Some(guide.as_mut()),
+        &guided_settings(64, 900, 0, Combine::Last),
+    );
+    let last = out
+        .iterations
+        .iter()
+        .rev()
+        .find_map(|it| it.update.as_ref())
+        .expect("training happened");
+    let mean = last
+        .details
+        .iter()
+        .find(|(n, _)| n == "selection_mean")
+        .map(|(_, v)| *v)
+        .expect("the guide reports its selection");
+    // Learned fractions strictly inside the clamp's range on average: the rule did choose.
+    assert!(mean > 0.1 && mean < 0.75, "mean fraction {mean}");
 }
 
 #[test]
@@ -382,8 +421,8 @@ impl GuidingDistribution for RecordingGuide {
     fn pdf_at(&self, v: &focal_render::guiding::GuideVertex, d: glam::Vec3) -> f32 {
         self.inner.pdf_at(v, d)
     }
-    fn selection_probability(&self, x: glam::Vec3) -> Option<f32> {
-        self.inner.selection_probability(x)
+    fn selection_probability(&self, x: glam::Vec3, glossy: bool) -> Option<f32> {
+        self.inner.selection_probability(x, glossy)
     }
     fn record(&mut self, segments: &[focal_render::guiding::TrainingSegment]) {
         self.seen

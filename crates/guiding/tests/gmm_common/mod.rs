@@ -171,6 +171,7 @@ pub fn segment_through(rng: &mut Rng, aabb: Aabb3, y: DVec3, w: f32) -> Training
         guide_pdf: 0.0,
         guide_fraction: 0.0,
         glossy_endpoint: false,
+        glossy_origin: false,
         refracting_endpoint: false,
         emitted: 0.0,
         emitter_pdf: 0.0,

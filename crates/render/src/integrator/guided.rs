@@ -156,10 +156,15 @@ impl GuidedPathIntegrator<'_> {
     /// probability (or the fixed fraction); where that is 0, the guide only at a random exploring share
     /// of the vertices (one uniform number is drawn only then).
     #[inline]
-    fn vertex_guide(&self, x: glam::Vec3, sampler: &mut Sampler) -> Option<VertexGuide<'_>> {
+    fn vertex_guide(
+        &self,
+        x: glam::Vec3,
+        glossy: bool,
+        sampler: &mut Sampler,
+    ) -> Option<VertexGuide<'_>> {
         let guide = self.guide?;
         let learned = if self.settings.learned_selection {
-            guide.selection_probability(x)
+            guide.selection_probability(x, glossy)
         } else {
             None
         };
@@ -292,7 +297,7 @@ impl Integrator for GuidedPathIntegrator<'_> {
 
             let wi = si.to_local(-ray.d);
             let guide = if bsdf.has_smooth() {
-                self.vertex_guide(si.p, sampler)
+                self.vertex_guide(si.p, glossy, sampler)
             } else {
                 None
             };
@@ -335,6 +340,7 @@ impl Integrator for GuidedPathIntegrator<'_> {
                         guide_pdf: step.guide_pdf,
                         guide_fraction: guide.map_or(0.0, |g| g.alpha),
                         glossy_endpoint: false,
+                        glossy_origin: glossy,
                         refracting_endpoint: false,
                         emitted: 0.0,
                         emitter_pdf: 0.0,

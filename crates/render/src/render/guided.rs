@@ -27,7 +27,9 @@ use super::pixel_weights::relative_pixel_weights;
 use super::{next_pass_spp, PassRunner, Progress, ProgressCounter, RenderSettings, RenderStats};
 use crate::camera::Camera;
 use crate::film::{FilmSpec, Image};
-use crate::integrator::{GuidedPathIntegrator, GuidedSettings};
+use crate::integrator::{
+    GuidedPathIntegrator, GuidedSettings, PathIntegrator, PathSettings, Roulette,
+};
 use crate::scene::Scene;
 use focal_guiding::{GuidingDistribution, UpdateContext, UpdateStats};
 use std::time::{Duration, Instant};
@@ -252,6 +254,13 @@ pub fn render_guided(
     let plans = training_plans
         .into_iter()
         .chain(std::iter::once(final_plan));
+    // The same estimator as the guided integrator without a guide (throughput roulette unless off).
+    let unguided = PathIntegrator {
+        settings: PathSettings {
+            russian_roulette: settings.integrator.roulette != Roulette::Off,
+            ..settings.integrator.path
+        },
+    };
     for (index, plan) in plans.enumerate() {
         let index = index as u32;
         let training = index < training_iterations;
@@ -286,7 +295,10 @@ pub fn render_guided(
                 break;
             }
             let pass_start = Instant::now();
-            let batch = {
+            let batch = if fell_back(&fallback) {
+                // Given up on guiding: the rest is rendered by the path tracer itself.
+                runner.run_pass(&unguided, count, &on_tile)
+            } else {
                 let integrator = GuidedPathIntegrator {
                     settings: settings.integrator,
                     guide: if guided { guide.as_deref() } else { None },
