@@ -256,15 +256,10 @@ impl SelectionGrid {
                     continue;
                 }
                 let covered = w * pg / (pg + pb);
-                self.pending += 1;
-                let cell = self.finest_cell(s.origin);
-                for level in 0..self.config.levels {
-                    let idx = self.cell_index(cell, level);
-                    let sums = &mut self.sums[idx];
-                    sums.count += 1.0;
+                self.add(s.origin, |sums| {
                     sums.contribution += w;
                     sums.covered += covered;
-                }
+                });
                 continue;
             }
             let mut terms = [0.0f64; CANDIDATES];
@@ -281,16 +276,23 @@ impl SelectionGrid {
             if !terms.iter().any(|t| t.is_finite()) {
                 continue;
             }
-            self.pending += 1;
-            let cell = self.finest_cell(s.origin);
-            for level in 0..self.config.levels {
-                let idx = self.cell_index(cell, level);
-                let sums = &mut self.sums[idx];
-                sums.count += 1.0;
+            self.add(s.origin, |sums| {
                 for (m, t) in sums.moments.iter_mut().zip(&terms) {
                     *m += t;
                 }
-            }
+            });
+        }
+    }
+
+    /// Counts one segment at `origin` in its cell of every level and adds its terms there.
+    fn add(&mut self, origin: Vec3, mut terms: impl FnMut(&mut CellSums)) {
+        self.pending += 1;
+        let cell = self.finest_cell(origin);
+        for level in 0..self.config.levels {
+            let idx = self.cell_index(cell, level);
+            let sums = &mut self.sums[idx];
+            sums.count += 1.0;
+            terms(sums);
         }
     }
 

@@ -168,6 +168,28 @@ fn inverse_variance_combination_keeps_the_mean() {
 /// α = 0.5 at an exploring eighth of those vertices, and its own choice elsewhere: a per-vertex random
 /// α, which must keep the estimator unbiased. On the caustic it chooses 0 in most cells and larger
 /// fractions near the ball, so all three cases occur.
+/// A detail of the last guide update of a 64 spp GMM render of the 48-pixel caustic with `params`.
+fn last_selection_detail(params: &GuideParams, name: &str) -> f64 {
+    let scene = load(&reference_scene("caustic"), &[("res", "48")]);
+    let mut guide = guide_with(GuidingMethod::Gmm, &scene, params);
+    let out = render_with(
+        &scene,
+        Some(guide.as_mut()),
+        &guided_settings(64, 900, 0, Combine::Last),
+    );
+    let last = out
+        .iterations
+        .iter()
+        .rev()
+        .find_map(|it| it.update.as_ref())
+        .expect("training happened");
+    last.details
+        .iter()
+        .find(|(n, _)| n == name)
+        .map(|(_, v)| *v)
+        .expect("the guide reports its selection")
+}
+
 #[test]
 fn learned_selection_keeps_the_mean() {
     let mut params = GuideParams::default();
@@ -182,25 +204,7 @@ fn learned_selection_keeps_the_mean() {
         6,
         Combine::Last,
     );
-    let scene = load(&reference_scene("caustic"), &[("res", "48")]);
-    let mut guide = guide_with(GuidingMethod::Gmm, &scene, &params);
-    let out = render_with(
-        &scene,
-        Some(guide.as_mut()),
-        &guided_settings(64, 900, 0, Combine::Last),
-    );
-    let last = out
-        .iterations
-        .iter()
-        .rev()
-        .find_map(|it| it.update.as_ref())
-        .expect("training happened");
-    let skip = last
-        .details
-        .iter()
-        .find(|(n, _)| n == "selection_skip_share")
-        .map(|(_, v)| *v)
-        .expect("the guide reports its selection");
+    let skip = last_selection_detail(&params, "selection_skip_share");
     assert!(skip > 0.0 && skip < 1.0, "skip share {skip}");
 }
 
@@ -219,25 +223,7 @@ fn share_rule_selection_keeps_the_mean() {
         6,
         Combine::Last,
     );
-    let scene = load(&reference_scene("caustic"), &[("res", "48")]);
-    let mut guide = guide_with(GuidingMethod::Gmm, &scene, &params);
-    let out = render_with(
-        &scene,
-        Some(guide.as_mut()),
-        &guided_settings(64, 900, 0, Combine::Last),
-    );
-    let last = out
-        .iterations
-        .iter()
-        .rev()
-        .find_map(|it| it.update.as_ref())
-        .expect("training happened");
-    let mean = last
-        .details
-        .iter()
-        .find(|(n, _)| n == "selection_mean")
-        .map(|(_, v)| *v)
-        .expect("the guide reports its selection");
+    let mean = last_selection_detail(&params, "selection_mean");
     // Learned fractions strictly inside the clamp's range on average: the rule did choose.
     assert!(mean > 0.1 && mean < 0.75, "mean fraction {mean}");
 }
