@@ -227,10 +227,12 @@ impl SelectionGrid {
         offset + (k * r + j) * r + i
     }
 
-    /// The learned probability of sampling the guide at `x`; `None` before the first update with data.
+    /// The learned probability of sampling the guide at `x`; `None` before the first update with data,
+    /// and under the share rule at a `glossy` vertex (which does not teach it either: see `record`).
     #[inline]
-    pub fn fraction_at(&self, x: Vec3) -> Option<f32> {
-        if self.table.is_empty() {
+    pub fn fraction_at(&self, x: Vec3, glossy: bool) -> Option<f32> {
+        if self.table.is_empty() || (glossy && self.config.rule == SelectionRule::ContributionShare)
+        {
             return None;
         }
         let res = self.finest_resolution() as usize;

@@ -83,7 +83,10 @@ fn exact_best(w: f64) -> f32 {
 #[test]
 fn chooses_the_fraction_with_the_least_second_moment_per_region() {
     let mut grid = SelectionGrid::new(unit_box(), SelectionConfig::default()).unwrap();
-    assert!(grid.fraction_at(Vec3::splat(0.5)).is_none(), "untrained");
+    assert!(
+        grid.fraction_at(Vec3::splat(0.5), false).is_none(),
+        "untrained"
+    );
     let mut rng = Rng(7);
     // Four regions in the corners of the box, each its own finest cell, with the integrand all in the
     // guide's support, mostly, half and not at all.
@@ -100,7 +103,7 @@ fn chooses_the_fraction_with_the_least_second_moment_per_region() {
     let summary = grid.update();
     assert_eq!(summary.coarse_share, 0.0, "every region has enough data");
     for (origin, w) in cases {
-        let chosen = grid.fraction_at(origin).unwrap();
+        let chosen = grid.fraction_at(origin, false).unwrap();
         eprintln!("w = {w}: chose {chosen}, closed form {}", exact_best(w));
         assert_eq!(chosen, exact_best(w), "w = {w}");
     }
@@ -136,7 +139,7 @@ fn the_share_rule_chooses_the_guide_covered_share_of_the_contribution() {
         }
         grid.update();
         for (origin, w, expected) in cases {
-            let chosen = grid.fraction_at(origin).unwrap() as f64;
+            let chosen = grid.fraction_at(origin, false).unwrap() as f64;
             eprintln!("alpha0 {alpha0}, w = {w}: chose {chosen:.4}, expected {expected:.4}");
             assert!((chosen - expected).abs() < 0.01, "w = {w}: {chosen}");
         }
@@ -170,12 +173,12 @@ fn sparse_cells_use_the_coarser_levels_choice_and_unguided_segments_teach_nothin
     grid.record(&segments(Vec3::splat(0.2), 10, 0.5, |_| 1.0, &mut rng));
     let summary = grid.update();
     assert!(summary.coarse_share > 0.0);
-    assert_eq!(grid.fraction_at(Vec3::splat(0.02)), Some(0.9));
+    assert_eq!(grid.fraction_at(Vec3::splat(0.02), false), Some(0.9));
     // The sparse cell's own data would say "skip", but 10 segments are too few: it inherits 0.9.
-    assert_eq!(grid.fraction_at(Vec3::splat(0.2)), Some(0.9));
+    assert_eq!(grid.fraction_at(Vec3::splat(0.2), false), Some(0.9));
     // Points outside the box clamp into its border cells; NaN lands in a valid cell.
-    assert_eq!(grid.fraction_at(Vec3::splat(-5.0)), Some(0.9));
-    assert!(grid.fraction_at(Vec3::NAN).is_some());
+    assert_eq!(grid.fraction_at(Vec3::splat(-5.0), false), Some(0.9));
+    assert!(grid.fraction_at(Vec3::NAN, false).is_some());
 }
 
 #[test]
@@ -240,7 +243,7 @@ fn invalid_segments_are_ignored_and_the_choice_stays_finite() {
         .collect();
     grid.record(&only_bsdf);
     grid.update();
-    assert_eq!(grid.fraction_at(Vec3::splat(0.5)), Some(0.0));
+    assert_eq!(grid.fraction_at(Vec3::splat(0.5), false), Some(0.0));
     assert!(grid.validate().is_ok());
 }
 

@@ -164,12 +164,18 @@ fn inverse_variance_combination_keeps_the_mean() {
     );
 }
 
-/// The learned selection probability (opt-in) samples the BSDF alone where it chose 0, the guide with
-/// α = 0.5 at an exploring eighth of those vertices, and its own choice elsewhere: a per-vertex random
-/// α, which must keep the estimator unbiased. On the caustic it chooses 0 in most cells and larger
-/// fractions near the ball, so all three cases occur.
-/// A detail of the last guide update of a 64 spp GMM render of the 48-pixel caustic with `params`.
-fn last_selection_detail(params: &GuideParams, name: &str) -> f64 {
+/// Checks that a GMM render of the 48-pixel caustic with the learned selection of `params` keeps the
+/// path tracer's mean, and returns detail `name` of the last guide update of a 64 spp render.
+fn check_selection_keeps_the_mean(params: &GuideParams, name: &str) -> f64 {
+    check_unbiased_with(
+        GuidingMethod::Gmm,
+        params,
+        "caustic",
+        "48",
+        64,
+        6,
+        Combine::Last,
+    );
     let scene = load(&reference_scene("caustic"), &[("res", "48")]);
     let mut guide = guide_with(GuidingMethod::Gmm, &scene, params);
     let out = render_with(
@@ -190,21 +196,16 @@ fn last_selection_detail(params: &GuideParams, name: &str) -> f64 {
         .expect("the guide reports its selection")
 }
 
+/// The learned selection probability (opt-in) samples the BSDF alone where it chose 0, the guide with
+/// α = 0.5 at an exploring eighth of those vertices, and its own choice elsewhere: a per-vertex random
+/// α, which must keep the estimator unbiased. On the caustic it chooses 0 in most cells and larger
+/// fractions near the ball, so all three cases occur.
 #[test]
 fn learned_selection_keeps_the_mean() {
     let mut params = GuideParams::default();
     params.gmm.learn_selection = true;
     params.gmm.selection_by_share = false;
-    check_unbiased_with(
-        GuidingMethod::Gmm,
-        &params,
-        "caustic",
-        "48",
-        64,
-        6,
-        Combine::Last,
-    );
-    let skip = last_selection_detail(&params, "selection_skip_share");
+    let skip = check_selection_keeps_the_mean(&params, "selection_skip_share");
     assert!(skip > 0.0 && skip < 1.0, "skip share {skip}");
 }
 
@@ -214,16 +215,7 @@ fn learned_selection_keeps_the_mean() {
 fn share_rule_selection_keeps_the_mean() {
     let mut params = GuideParams::default();
     params.gmm.learn_selection = true;
-    check_unbiased_with(
-        GuidingMethod::Gmm,
-        &params,
-        "caustic",
-        "48",
-        64,
-        6,
-        Combine::Last,
-    );
-    let mean = last_selection_detail(&params, "selection_mean");
+    let mean = check_selection_keeps_the_mean(&params, "selection_mean");
     // Learned fractions strictly inside the clamp's range on average: the rule did choose.
     assert!(mean > 0.1 && mean < 0.75, "mean fraction {mean}");
 }

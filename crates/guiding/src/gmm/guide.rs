@@ -774,10 +774,8 @@ impl GuidingDistribution for GmmGuide {
     }
 
     fn selection_probability(&self, x: Vec3, glossy: bool) -> Option<f32> {
-        let learned = (self.config.learn_selection
-            && self.final_render
-            && !(glossy && self.config.selection_by_share))
-            .then(|| self.selection.fraction_at(x))
+        let learned = (self.config.learn_selection && self.final_render)
+            .then(|| self.selection.fraction_at(x, glossy))
             .flatten();
         Some(learned.unwrap_or(self.config.guide_fraction))
     }

@@ -128,7 +128,7 @@ struct PendingSegment {
 /// by refraction if it refracted on the way and left at more than arccos([`STRAIGHT_THROUGH_COS`]) from
 /// the segment's direction. Reflection off glass keeps the line (a mirror's virtual image).
 fn leave_glass(pending: &mut [PendingSegment], from: usize, d_out: glam::Vec3) {
-    for p in pending.iter_mut().skip(from).filter(|p| p.in_glass) {
+    for p in pending[from..].iter_mut().filter(|p| p.in_glass) {
         p.in_glass = false;
         p.segment.refracting_endpoint =
             p.refracted && p.segment.direction.dot(d_out) < STRAIGHT_THROUGH_COS;
