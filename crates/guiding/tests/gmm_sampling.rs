@@ -1,6 +1,7 @@
 //! The GMM guide's sampling and pdf agree: the pdf integrates to 1 (sphere, or hemisphere when
 //! truncated), the truncated pdf is the full pdf over the hemisphere mass, and sampled directions pass
-//! chi-square tests against the pdf.
+//! chi-square tests against the pdf; likewise with component weights that depend on the shading point
+//! (origin models).
 
 mod gmm_common;
 
@@ -8,11 +9,11 @@ use focal_guiding::gmm::{GmmConfig, GmmGuide, Mixture};
 use focal_guiding::{Aabb3, GuidingDistribution};
 use focal_testkit::{chi2_sphere_test, sphere_integral, Chi2Options};
 use glam::{DVec3, Vec3};
-use gmm_common::{random_mixture, Rng};
+use gmm_common::{oracle_weights, random_mixture, with_random_origins, Rng};
 use statrs::distribution::{ContinuousCDF, Normal};
 
 /// Chi-square tests in this file (Šidák family size).
-const CHI2_TESTS: usize = 7;
+const CHI2_TESTS: usize = 9;
 
 fn world_box() -> Aabb3 {
     Aabb3 {
@@ -36,10 +37,11 @@ fn independent_direction(
 ) -> DVec3 {
     let diverging = rng.f64() < p_div;
     let m = if diverging { div } else { conv };
+    let weights = oracle_weights(m, x);
     let mut u = rng.f64();
     let mut k = 0;
-    while k + 1 < m.len() && u >= m.weights()[k] {
-        u -= m.weights()[k];
+    while k + 1 < m.len() && u >= weights[k] {
+        u -= weights[k];
         k += 1;
     }
     let g = &m.components()[k];
@@ -56,11 +58,12 @@ fn independent_direction(
     }
 }
 
-/// Z = Σ (1 − p_div) π_k Φ(n·(μ_k − x)/σₙ) + p_div π_k Φ(−n·(μ_k − x)/σₙ), computed with statrs.
+/// Z = Σ (1 − p_div) c_k Φ(n·(μ_k − x)/σₙ) + p_div c_k Φ(−n·(μ_k − x)/σₙ), computed with statrs (c_k the
+/// component weights at x, [`oracle_weights`]).
 fn hemisphere_mass(conv: &Mixture, div: &Mixture, p_div: f64, x: DVec3, n: DVec3) -> f64 {
     let std = Normal::new(0.0, 1.0).unwrap();
     let side = |m: &Mixture, sign: f64| -> f64 {
-        m.weights()
+        oracle_weights(m, x)
             .iter()
             .zip(m.components())
             .map(|(w, g)| {
@@ -124,6 +127,14 @@ fn pdf_integrates_to_one_over_the_sphere() {
             0.6,
         );
         let div = random_mixture(&mut rng, 1 + case % 3, DVec3::new(-1.0, 0.5, 0.5), 0.1, 0.8);
+        let (conv, div) = if case % 2 == 1 {
+            (
+                with_random_origins(&mut rng, conv, DVec3::ZERO, 0.2),
+                with_random_origins(&mut rng, div, DVec3::ZERO, 0.0),
+            )
+        } else {
+            (conv, div)
+        };
         let p_div = [0.0, 0.3, 0.7][case % 3];
         let g = guide(&conv, &div, p_div);
         // Inside the mixtures, next to them and far away.
@@ -157,6 +168,14 @@ fn truncated_pdf_is_the_full_pdf_over_the_hemisphere_mass_and_integrates_to_one(
             0.1,
             0.5,
         );
+        let (conv, div) = if case % 2 == 0 {
+            (
+                with_random_origins(&mut rng, conv, DVec3::ZERO, 0.3),
+                with_random_origins(&mut rng, div, DVec3::ZERO, 0.1),
+            )
+        } else {
+            (conv, div)
+        };
         let p_div = [0.0, 0.4, 0.8][case % 3];
         let g = guide(&conv, &div, p_div);
         // The guide sees f32 inputs: give the oracle exactly the same point and normal.
@@ -293,6 +312,77 @@ fn chi_square_elongated_components_far_away() {
 }
 
 #[test]
+fn chi_square_full_sphere_with_origin_weights() {
+    let mut rng = Rng(32);
+    let conv = random_mixture(&mut rng, 4, DVec3::new(1.0, 0.5, 0.0), 0.15, 0.5);
+    let conv = with_random_origins(&mut rng, conv, DVec3::ZERO, 0.2);
+    let div = random_mixture(&mut rng, 2, DVec3::new(-1.0, -0.5, 0.3), 0.15, 0.5);
+    let div = with_random_origins(&mut rng, div, DVec3::ZERO, 0.0);
+    let g = guide(&conv, &div, 0.35);
+    chi2(&g, Vec3::new(0.2, 0.1, -0.2), None, 8);
+}
+
+#[test]
+fn chi_square_truncated_with_origin_weights() {
+    let mut rng = Rng(33);
+    let conv = random_mixture(&mut rng, 4, DVec3::new(0.5, 0.5, 0.5), 0.2, 0.5);
+    let conv = with_random_origins(&mut rng, conv, DVec3::ZERO, 0.25);
+    let div = random_mixture(&mut rng, 3, DVec3::new(0.3, -0.6, 0.2), 0.2, 0.5);
+    let div = with_random_origins(&mut rng, div, DVec3::ZERO, 0.25);
+    let g = guide(&conv, &div, 0.5);
+    chi2(
+        &g,
+        Vec3::new(0.1, 0.0, -0.1),
+        Some(Vec3::new(0.0, 0.6, 0.8)),
+        9,
+    );
+}
+
+#[test]
+fn origin_weights_follow_the_shading_point() {
+    // Two foci whose rays start in two separate regions: from each region the guide aims mostly at
+    // its own focus, and the weights at any point sum to 1 and keep β of the global ones.
+    let focus = [DVec3::new(0.0, 1.0, 0.0), DVec3::new(0.0, -1.0, 0.0)];
+    let region = [DVec3::new(-2.0, 0.0, 0.0), DVec3::new(2.0, 0.0, 0.0)];
+    let small = |c: DVec3, s: f64| {
+        focal_guiding::gmm::Gaussian3::new(c, focal_guiding::gmm::Sym3::scaled_identity(s * s))
+            .unwrap()
+    };
+    let conv = Mixture::new(&[0.5, 0.5], focus.iter().map(|&f| small(f, 0.05)).collect())
+        .unwrap()
+        .with_origins(
+            focal_guiding::gmm::OriginModel::new(
+                region.iter().map(|&r| small(r, 0.5)).collect(),
+                &[1.0, 1.0],
+                0.2,
+            )
+            .unwrap(),
+        )
+        .unwrap();
+    let g = guide(&conv, &Mixture::empty(), 0.0);
+    for (i, &x) in region.iter().enumerate() {
+        let w = conv.weights_at(x);
+        assert!((w.iter().sum::<f64>() - 1.0).abs() < 1e-12, "{w:?}");
+        assert!(w[i] > 0.89 && w[1 - i] >= 0.1 - 1e-12, "region {i}: {w:?}");
+        let oracle = oracle_weights(&conv, x);
+        for (a, b) in w.iter().zip(&oracle) {
+            assert!((a - b).abs() < 1e-12, "{w:?} vs {oracle:?}");
+        }
+        // The pdf towards the own focus is (0.9 / 0.1) = 9 times that towards the other one, up to
+        // the foci's different distances and angles (symmetric here).
+        let own = g.pdf(x.as_vec3(), None, (focus[i] - x).as_vec3());
+        let other = g.pdf(x.as_vec3(), None, (focus[1 - i] - x).as_vec3());
+        assert!(own > 8.0 * other, "region {i}: {own} vs {other}");
+    }
+    // Without origins both foci weigh alike from both regions.
+    let plain = guide(&conv.clone().without_origins(), &Mixture::empty(), 0.0);
+    let x = region[0].as_vec3();
+    let a = plain.pdf(x, None, (focus[0] - region[0]).as_vec3());
+    let b = plain.pdf(x, None, (focus[1] - region[0]).as_vec3());
+    assert!((a / b - 1.0).abs() < 1e-3, "{a} vs {b}");
+}
+
+#[test]
 fn hemisphere_without_guide_mass_is_empty() {
     // The whole mixture far below the plane: no sample, pdf 0, consistently.
     let mut rng = Rng(27);
@@ -333,6 +423,7 @@ fn prepared_vertex_queries_equal_the_plain_ones_bit_for_bit() {
     // reused vertex must forget the previous point.
     let mut rng = Rng(31);
     let conv = random_mixture(&mut rng, 5, DVec3::ZERO, 0.05, 0.6);
+    let conv = with_random_origins(&mut rng, conv, DVec3::ZERO, 0.25);
     let div = random_mixture(&mut rng, 3, DVec3::new(1.0, 0.5, 0.0), 0.1, 0.4);
     let g = guide(&conv, &div, 0.3);
     let mut vertex = focal_guiding::GuideVertex::default();

@@ -120,6 +120,60 @@ impl NarrowingTable {
         self.weights.is_empty()
     }
 
+    /// Which components a ray o + tω, t ∈ [t0, t1] (unit ω) was aimed at, as seen from its origin: the
+    /// posterior γ_k ∝ π_k ∫ N_k(o + tω) t² dt of the direction ω among the components' directional
+    /// pdfs (the half-line kernel of the design note, over the ray's interval), written to `gamma`
+    /// (which needs [`NarrowingTable::len`] entries). The t² is taken at the component's peak clamped
+    /// to the interval, plus its variance along the ray (t̄² + s², exact for a peak inside the
+    /// interval); without it a broad component around the origin, which spreads its directions over
+    /// the whole sphere, would claim the rays that start in it. Components more than e⁻²⁰ below the
+    /// best bound get 0. False, with `gamma` undefined, if the ray reaches no component.
+    pub fn line_posterior(&self, o: DVec3, w: DVec3, t0: f64, t1: f64, gamma: &mut [f64]) -> bool {
+        let k = self.len();
+        if k == 0 || !(t1 > t0) {
+            return false;
+        }
+        let mut m = [0.0f64; MAX_COMPONENTS];
+        let mut s = [1.0f64; MAX_COMPONENTS];
+        let mut log_peak = [f64::NEG_INFINITY; MAX_COMPONENTS];
+        let mut bound = [f64::NEG_INFINITY; MAX_COMPONENTS];
+        let mut t2 = [0.0f64; MAX_COMPONENTS];
+        self.restrict(o, w, &mut m, &mut s, &mut log_peak, &mut bound);
+        for i in 0..k {
+            let outside = ((t0 - m[i]).max(m[i] - t1)).max(0.0) / s[i];
+            let t = m[i].clamp(t0, t1);
+            t2[i] = t * t + s[i] * s[i];
+            bound[i] += t2[i].ln() - 0.5 * outside * outside;
+        }
+        let best = bound[..k].iter().fold(f64::NEG_INFINITY, |a, &b| a.max(b));
+        if !best.is_finite() {
+            return false;
+        }
+        let mut total = 0.0;
+        for i in 0..k {
+            gamma[i] = if bound[i] >= best - NARROWING_CULL {
+                // Relative to the best bound, so that rays far from every component do not underflow.
+                let line = LineGaussian {
+                    m: m[i],
+                    s: s[i],
+                    log_peak: log_peak[i] - best,
+                    log_at_origin: f64::NEG_INFINITY,
+                };
+                self.weights[i] * line.segment_mass(t0, t1) * t2[i]
+            } else {
+                0.0
+            };
+            total += gamma[i];
+        }
+        if !(total > 0.0 && total.is_finite()) {
+            return false;
+        }
+        for g in &mut gamma[..k] {
+            *g /= total;
+        }
+        true
+    }
+
     /// Every component restricted to the line o + tω (as [`super::gaussian::Gaussian3::along_line`],
     /// vectorised): fills `m`, `s`, `log_peak` and the mass bounds `bound`.
     #[inline]
