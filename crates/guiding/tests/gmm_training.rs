@@ -947,7 +947,10 @@ fn the_origin_model_learns_from_where_each_focus_is_seen() {
         }
         (out, guide)
     };
-    let (with, guide) = shares(GmmConfig::default());
+    let (with, guide) = shares(GmmConfig {
+        condition_on_origins: true,
+        ..GmmConfig::default()
+    });
     assert!(guide.converging().origins().is_some());
     for r in 0..2 {
         assert!(
