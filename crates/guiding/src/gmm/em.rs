@@ -354,7 +354,7 @@ fn lane_sum(q: &[f64]) -> f64 {
 
 /// Adds ω·(1, d, ddᵀ) to ten raw moment accumulators.
 #[inline]
-fn add_moments(a: &mut [f64; 10], om: f64, d: DVec3) {
+pub(crate) fn add_moments(a: &mut [f64; 10], om: f64, d: DVec3) {
     let (ox, oy, oz) = (om * d.x, om * d.y, om * d.z);
     a[0] += om;
     a[1] += ox;

@@ -23,6 +23,7 @@
 use glam::DVec3;
 use rayon::prelude::*;
 
+use super::em::add_moments;
 use super::gaussian::Gaussian3;
 use super::mixture::Mixture;
 use super::rays::{mix64, NarrowingTable, TrainingRay};
@@ -232,7 +233,8 @@ pub fn fit_origins(
                 }
                 for (a, g) in acc.iter_mut().zip(&gamma[..k]) {
                     if *g > 0.0 {
-                        add_raw_moments(a, w * g, o);
+                        // Unit frame, so |o| ≲ 1 and the raw moments need no centring.
+                        add_moments(a, w * g, o);
                     }
                 }
             }
@@ -282,21 +284,4 @@ pub fn fit_origins(
         .map(|a| if a[0] > 1e-12 * pooled[0] { a[0] } else { 0.0 })
         .collect();
     OriginModel::new(gaussians, &shares, params.floor).ok()
-}
-
-/// Adds ω·(1, o, ooᵀ) to ten raw moment accumulators (unit frame, so |o| ≲ 1 and the moments need no
-/// centring).
-#[inline]
-fn add_raw_moments(a: &mut [f64; 10], om: f64, o: DVec3) {
-    let (ox, oy, oz) = (om * o.x, om * o.y, om * o.z);
-    a[0] += om;
-    a[1] += ox;
-    a[2] += oy;
-    a[3] += oz;
-    a[4] += ox * o.x;
-    a[5] += ox * o.y;
-    a[6] += ox * o.z;
-    a[7] += oy * o.y;
-    a[8] += oy * o.z;
-    a[9] += oz * o.z;
 }
