@@ -41,6 +41,7 @@ use glam::DVec3;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
+use super::cumulative::pick_interval;
 use super::gaussian::Gaussian3;
 use super::mixture::{Mixture, MAX_COMPONENTS};
 use super::rays::{mix64, WeightedPoint};
@@ -636,22 +637,6 @@ impl SplitMix {
     }
 }
 
-/// Index whose cumulative weight first exceeds `target` (the last positive one on rounding overrun).
-fn pick(weights: impl Iterator<Item = f64>, target: f64) -> Option<usize> {
-    let mut acc = 0.0;
-    let mut last = None;
-    for (i, w) in weights.enumerate() {
-        if w > 0.0 {
-            last = Some(i);
-            acc += w;
-            if target < acc {
-                break;
-            }
-        }
-    }
-    last
-}
-
 /// Weighted k-means++ seeding and Lloyd iterations on a stride subset of `points`; returns the
 /// clusters' statistics (empty clusters dropped).
 pub fn kmeans_init(points: &[WeightedPoint], k: usize, seed: u64) -> Vec<SuffStats> {
@@ -668,7 +653,8 @@ pub fn kmeans_init(points: &[WeightedPoint], k: usize, seed: u64) -> Vec<SuffSta
     }
     let mut rng = SplitMix(seed);
     let total: f64 = sample.iter().map(|(_, w)| w).sum();
-    let Some(first) = pick(sample.iter().map(|(_, w)| *w), rng.unit() * total) else {
+    let Some((first, _, _)) = pick_interval(sample.iter().map(|(_, w)| *w), rng.unit() * total)
+    else {
         return Vec::new();
     };
     let mut centers = vec![sample[first].0];
@@ -682,7 +668,7 @@ pub fn kmeans_init(points: &[WeightedPoint], k: usize, seed: u64) -> Vec<SuffSta
             break;
         }
         let weights = sample.iter().zip(&d2).map(|((_, w), d)| w * d);
-        let Some(next) = pick(weights, rng.unit() * total) else {
+        let Some((next, _, _)) = pick_interval(weights, rng.unit() * total) else {
             break;
         };
         let c = sample[next].0;

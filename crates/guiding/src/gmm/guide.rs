@@ -11,6 +11,7 @@ use std::time::Instant;
 use glam::{DVec3, Vec3};
 use serde::{Deserialize, Serialize};
 
+use super::cumulative::pick_interval;
 use super::em::{fit, FitParams, FitReport, SuffStats};
 use super::gaussian::Gaussian3;
 use super::mixture::{Mixture, MAX_COMPONENTS, TERMS_PER_COMPONENT};
@@ -588,18 +589,7 @@ impl GmmGuide {
                 .map(|m| q * m),
         );
         let target = u[0] as f64 * z;
-        let mut acc = 0.0;
-        let mut chosen = None;
-        for (i, m) in shares.enumerate() {
-            if m > 0.0 {
-                chosen = Some((i, acc, m));
-                if target < acc + m {
-                    break;
-                }
-                acc += m;
-            }
-        }
-        let (i, before, m) = chosen?;
+        let (i, before, m) = pick_interval(shares, target)?;
         let u0 = open_unit((target - before) / m);
         Some(if i < kc {
             let g = &self.conv.mixture.components()[i];

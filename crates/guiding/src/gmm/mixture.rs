@@ -3,6 +3,7 @@
 
 use glam::{DVec3, Vec3};
 
+use super::cumulative::pick_interval;
 use super::directional_pdf::{half_line_kernel, half_line_kernel_f32};
 use super::gaussian::Gaussian3;
 use super::origins::OriginModel;
@@ -430,18 +431,7 @@ impl Mixture {
             return None;
         }
         let target = u * total;
-        let mut acc = 0.0;
-        let mut chosen = None;
-        for (k, m) in masses.enumerate() {
-            if m > 0.0 {
-                chosen = Some((k, acc, m));
-                if target < acc + m {
-                    break;
-                }
-                acc += m;
-            }
-        }
-        let (k, before, m) = chosen?;
+        let (k, before, m) = pick_interval(masses, target)?;
         Some((k, ((target - before) / m).clamp(0.0, 1.0)))
     }
 

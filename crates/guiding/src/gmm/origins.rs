@@ -26,7 +26,7 @@ use rayon::prelude::*;
 use super::em::add_moments;
 use super::gaussian::Gaussian3;
 use super::mixture::Mixture;
-use super::rays::{mix64, NarrowingTable, TrainingRay};
+use super::rays::{stride_pick, NarrowingTable, TrainingRay};
 use super::sym3::Sym3;
 
 /// Rays per work item of the origin fit (fixed, so the chunk sums and their order do not depend on the
@@ -217,9 +217,7 @@ pub fn fit_origins(
             let mut acc = vec![[0.0f64; 10]; k];
             let mut gamma = [0.0f64; super::mixture::MAX_COMPONENTS];
             for m in c * ORIGIN_CHUNK..((c + 1) * ORIGIN_CHUNK).min(count) {
-                // A hashed ray within each stride: a fixed offset would alias with any period of the
-                // ray order (segments alternate between bounces of one path, or between regions).
-                let index = m * stride + (mix64(m as u64) % stride as u64) as usize;
+                let index = stride_pick(m, stride, 0);
                 let Some(ray) = rays.get(index) else {
                     continue;
                 };

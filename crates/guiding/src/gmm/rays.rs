@@ -255,6 +255,15 @@ pub fn mix64(mut z: u64) -> u64 {
     z ^ (z >> 31)
 }
 
+/// The ray taken from the `m`-th run of `stride` consecutive rays when only one in `stride` is used: a
+/// hashed position within the run, so that every ray is taken with probability 1 / `stride` (the
+/// subset's weight) and a period in the ray order (bounces of one path, alternating regions) cannot
+/// alias with a fixed offset. May point past the end in the last, partial run: the caller skips it.
+#[inline]
+pub(crate) fn stride_pick(m: usize, stride: usize, seed: u64) -> usize {
+    m * stride + (mix64(seed ^ mix64(m as u64)) % stride as u64) as usize
+}
+
 /// A uniform number in [0, 1) determined by `key` and `j`.
 #[inline]
 fn unit_hash(key: u64, j: u64) -> f64 {
@@ -376,12 +385,7 @@ pub fn generate_points(
     }
     let wanted = rays.len().saturating_mul(per_ray);
     let stride = wanted.div_ceil(max_points.max(1)).max(1);
-    let offset = (mix64(seed) % stride as u64) as usize;
-    let count = if offset < rays.len() {
-        (rays.len() - offset).div_ceil(stride)
-    } else {
-        0
-    };
+    let count = rays.len().div_ceil(stride);
     let chunks = count.div_ceil(RAY_CHUNK);
     let parts: Vec<Vec<WeightedPoint>> = (0..chunks)
         .into_par_iter()
@@ -390,16 +394,12 @@ pub fn generate_points(
             let end = (begin + RAY_CHUNK).min(count);
             let mut out = Vec::with_capacity((end - begin) * per_ray);
             for m in begin..end {
-                let index = offset + m * stride;
+                let index = stride_pick(m, stride, seed);
+                let Some(ray) = rays.get(index) else {
+                    continue;
+                };
                 let key = mix64(seed ^ mix64(index as u64));
-                ray_points(
-                    &rays[index],
-                    key,
-                    per_ray,
-                    sampling,
-                    stride as f64,
-                    &mut out,
-                );
+                ray_points(ray, key, per_ray, sampling, stride as f64, &mut out);
             }
             out
         })
