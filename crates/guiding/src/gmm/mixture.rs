@@ -3,6 +3,7 @@
 
 use glam::{DVec3, Vec3};
 
+use super::columns::GaussianColumns;
 use super::cumulative::pick_interval;
 use super::directional_pdf::{half_line_kernel, half_line_kernel_f32};
 use super::gaussian::Gaussian3;
@@ -55,12 +56,11 @@ struct Soa {
 impl Soa {
     fn new(weights: &[f64], components: &[Gaussian3]) -> Self {
         let padded = components.len().div_ceil(LANES) * LANES;
-        let column = |f: &dyn Fn(&Gaussian3) -> f64, fill: f64| {
-            let mut v: Vec<f64> = components.iter().map(f).collect();
-            v.resize(padded, fill);
-            v
-        };
-        let identity = [1.0, 0.0, 1.0, 0.0, 0.0, 1.0];
+        let GaussianColumns {
+            mean,
+            inv_chol,
+            chol,
+        } = GaussianColumns::new(components, padded);
         let mut coef: Vec<f64> = weights
             .iter()
             .zip(components)
@@ -73,11 +73,7 @@ impl Soa {
             .iter()
             .map(|w| if *w > 0.0 { 1.0 / w } else { 0.0 })
             .collect();
-        let inv_chol: [Vec<f64>; 6] =
-            std::array::from_fn(|i| column(&|g| g.inverse_cholesky().0[i], identity[i]));
         let to_f32 = |v: &Vec<f64>| v.iter().map(|x| *x as f32).collect::<Vec<f32>>();
-        let chol: [Vec<f64>; 6] =
-            std::array::from_fn(|i| column(&|g| g.cholesky().0[i], identity[i]));
         Self {
             chol32: std::array::from_fn(|i| to_f32(&chol[i])),
             coef32: to_f32(&coef),
@@ -85,7 +81,7 @@ impl Soa {
             coef,
             weight,
             inv_weight,
-            mean: std::array::from_fn(|a| column(&|g| g.mean()[a], 0.0)),
+            mean,
             inv_chol,
             chol,
         }

@@ -11,6 +11,7 @@
 //!   [`em`] (the fit) and [`rays`] (training rays and points) are public so tests and tools can check
 //!   each piece on its own.
 
+mod columns;
 mod cumulative;
 mod directional_pdf;
 pub mod em;

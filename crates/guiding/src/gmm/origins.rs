@@ -23,6 +23,7 @@
 use glam::DVec3;
 use rayon::prelude::*;
 
+use super::columns::GaussianColumns;
 use super::em::add_moments;
 use super::gaussian::Gaussian3;
 use super::mixture::Mixture;
@@ -92,12 +93,6 @@ impl OriginModel {
 
     fn with_normalized(gaussians: Vec<Gaussian3>, shares: Vec<f64>, floor: f64) -> Self {
         let padded = gaussians.len().div_ceil(8) * 8;
-        let column = |f: &dyn Fn(&Gaussian3) -> f64, fill: f64| {
-            let mut v: Vec<f64> = gaussians.iter().map(f).collect();
-            v.resize(padded, fill);
-            v
-        };
-        let identity = [1.0, 0.0, 1.0, 0.0, 0.0, 1.0];
         // W_k times the normaliser 1/(π² |S_k|^½) of the ν = 1 Student-t density.
         let mut coef: Vec<f64> = gaussians
             .iter()
@@ -108,9 +103,10 @@ impl OriginModel {
             })
             .collect();
         coef.resize(padded, 0.0);
+        let GaussianColumns { mean, inv_chol, .. } = GaussianColumns::new(&gaussians, padded);
         Self {
-            mean: std::array::from_fn(|a| column(&|g| g.mean()[a], 0.0)),
-            inv_chol: std::array::from_fn(|i| column(&|g| g.inverse_cholesky().0[i], identity[i])),
+            mean,
+            inv_chol,
             coef,
             gaussians,
             shares,

@@ -17,6 +17,7 @@
 use glam::DVec3;
 use rayon::prelude::*;
 
+use super::cumulative::pick_interval;
 use super::directional_pdf::LineGaussian;
 use super::mixture::{Mixture, MAX_COMPONENTS};
 use super::truncated::truncated_std_normal;
@@ -138,12 +139,11 @@ impl NarrowingTable {
         let mut log_peak = [f64::NEG_INFINITY; MAX_COMPONENTS];
         let mut bound = [f64::NEG_INFINITY; MAX_COMPONENTS];
         let mut t2 = [0.0f64; MAX_COMPONENTS];
-        self.restrict(o, w, &mut m, &mut s, &mut log_peak, &mut bound);
+        self.restrict_to_segment(o, w, t0, t1, &mut m, &mut s, &mut log_peak, &mut bound);
         for i in 0..k {
-            let outside = ((t0 - m[i]).max(m[i] - t1)).max(0.0) / s[i];
             let t = m[i].clamp(t0, t1);
             t2[i] = t * t + s[i] * s[i];
-            bound[i] += t2[i].ln() - 0.5 * outside * outside;
+            bound[i] += t2[i].ln();
         }
         let best = bound[..k].iter().fold(f64::NEG_INFINITY, |a, &b| a.max(b));
         if !best.is_finite() {
@@ -172,6 +172,29 @@ impl NarrowingTable {
             *g /= total;
         }
         true
+    }
+
+    /// [`NarrowingTable::restrict`] to the segment t ∈ [t0, t1]: each mass bound tightened by the
+    /// Gaussian factor of its peak's distance outside the segment, so that culling against the best
+    /// bound keeps the components the segment actually passes.
+    #[allow(clippy::too_many_arguments)]
+    #[inline]
+    fn restrict_to_segment(
+        &self,
+        o: DVec3,
+        w: DVec3,
+        t0: f64,
+        t1: f64,
+        m: &mut [f64],
+        s: &mut [f64],
+        log_peak: &mut [f64],
+        bound: &mut [f64],
+    ) {
+        self.restrict(o, w, m, s, log_peak, bound);
+        for i in 0..self.len() {
+            let outside = ((t0 - m[i]).max(m[i] - t1)).max(0.0) / s[i];
+            bound[i] -= 0.5 * outside * outside;
+        }
     }
 
     /// Every component restricted to the line o + tω (as [`super::gaussian::Gaussian3::along_line`],
@@ -311,12 +334,7 @@ pub fn ray_points(
             let mut log_peak = [f64::NEG_INFINITY; MAX_COMPONENTS];
             let mut bound = [f64::NEG_INFINITY; MAX_COMPONENTS];
             let mut mass = [0.0f64; MAX_COMPONENTS];
-            table.restrict(o, d, &mut m, &mut s, &mut log_peak, &mut bound);
-            // Tighten each bound by the Gaussian factor of the peak's distance outside [t0, t1].
-            for i in 0..k {
-                let outside = ((t0 - m[i]).max(m[i] - t1)).max(0.0) / s[i];
-                bound[i] -= 0.5 * outside * outside;
-            }
+            table.restrict_to_segment(o, d, t0, t1, &mut m, &mut s, &mut log_peak, &mut bound);
             let best = bound[..k].iter().fold(f64::NEG_INFINITY, |a, &b| a.max(b));
             if !(best > -700.0) {
                 return;
@@ -349,18 +367,9 @@ pub fn ray_points(
             for j in 0..n {
                 let u = (j as f64 + unit_hash(key, j as u64)) / n as f64;
                 let target = u * total;
-                let mut acc = 0.0;
-                let mut chosen = None;
-                for (i, &m) in mass[..k].iter().enumerate() {
-                    if m > 0.0 {
-                        chosen = Some((i, acc));
-                        if target < acc + m {
-                            break;
-                        }
-                        acc += m;
-                    }
-                }
-                let Some((i, before)) = chosen else { return };
+                let Some((i, before, _)) = pick_interval(mass[..k].iter().copied(), target) else {
+                    return;
+                };
                 let v = ((target - before) / mass[i]).clamp(0.0, 1.0);
                 let a = (t0 - m[i]) / s[i];
                 let b = (t1 - m[i]) / s[i];
