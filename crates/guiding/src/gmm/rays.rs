@@ -174,9 +174,10 @@ impl NarrowingTable {
         true
     }
 
-    /// [`NarrowingTable::restrict`] to the segment t ∈ [t0, t1]: each mass bound tightened by the
-    /// Gaussian factor of its peak's distance outside the segment, so that culling against the best
-    /// bound keeps the components the segment actually passes.
+    /// Every component restricted to the line o + tω (as [`super::gaussian::Gaussian3::along_line`],
+    /// vectorised): fills `m`, `s`, `log_peak` and the bounds `bound` on the log of each mass on the
+    /// segment t ∈ [t0, t1], tightened by the Gaussian factor of the peak's distance outside it, so that
+    /// culling against the best bound keeps the components the segment actually passes.
     #[allow(clippy::too_many_arguments)]
     #[inline]
     fn restrict_to_segment(
@@ -185,25 +186,6 @@ impl NarrowingTable {
         w: DVec3,
         t0: f64,
         t1: f64,
-        m: &mut [f64],
-        s: &mut [f64],
-        log_peak: &mut [f64],
-        bound: &mut [f64],
-    ) {
-        self.restrict(o, w, m, s, log_peak, bound);
-        for i in 0..self.len() {
-            let outside = ((t0 - m[i]).max(m[i] - t1)).max(0.0) / s[i];
-            bound[i] -= 0.5 * outside * outside;
-        }
-    }
-
-    /// Every component restricted to the line o + tω (as [`super::gaussian::Gaussian3::along_line`],
-    /// vectorised): fills `m`, `s`, `log_peak` and the mass bounds `bound`.
-    #[inline]
-    fn restrict(
-        &self,
-        o: DVec3,
-        w: DVec3,
         m: &mut [f64],
         s: &mut [f64],
         log_peak: &mut [f64],
@@ -238,7 +220,9 @@ impl NarrowingTable {
             m[i] = b / a;
             s[i] = inv_sqrt_a;
             log_peak[i] = ln[i] - 0.5 * perp;
+            let outside = ((t0 - m[i]).max(m[i] - t1)).max(0.0) / s[i];
             bound[i] = log_peak[i] + lb[i];
+            bound[i] -= 0.5 * outside * outside;
         }
     }
 }
@@ -367,10 +351,10 @@ pub fn ray_points(
             for j in 0..n {
                 let u = (j as f64 + unit_hash(key, j as u64)) / n as f64;
                 let target = u * total;
-                let Some((i, before, _)) = pick_interval(mass[..k].iter().copied(), target) else {
+                let Some((i, before, mi)) = pick_interval(mass[..k].iter().copied(), target) else {
                     return;
                 };
-                let v = ((target - before) / mass[i]).clamp(0.0, 1.0);
+                let v = ((target - before) / mi).clamp(0.0, 1.0);
                 let a = (t0 - m[i]) / s[i];
                 let b = (t1 - m[i]) / s[i];
                 let t = (m[i] + s[i] * truncated_std_normal(a, b, v)).clamp(t0, t1);

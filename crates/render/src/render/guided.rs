@@ -255,9 +255,8 @@ pub fn render_guided(
     let mut last_runner_threads = 0;
     let mut rejected = 0u64;
     let mut total_spp = 0u32;
+    // The latest check's decision: it stops changing once a check gives up guiding.
     let mut fallback: Option<Fallback> = None;
-    // The latest check that kept guiding; it becomes the decision if no later one gives up.
-    let mut kept: Option<CrossCheck> = None;
     let fell_back = |f: &Option<Fallback>| f.is_some_and(|f| f.fell_back);
     let plans = training_plans
         .into_iter()
@@ -387,19 +386,14 @@ pub fn render_guided(
                     && halves
                     && matches!(settings.budget, TrainingBudget::Time { .. })
                     && !settings.pretrained
-                    && fallback.is_none();
+                    && !fell_back(&fallback);
                 if let (true, Some(c)) = (checking, check) {
                     let checks = FALLBACK_THRESHOLDS.len();
                     let threshold = FALLBACK_THRESHOLDS[(guided_images.len() - 1).min(checks - 1)];
-                    let fell = c.inefficiency_ratio > threshold;
-                    if fell {
-                        fallback = Some(Fallback {
-                            check: c,
-                            fell_back: true,
-                        });
-                    } else {
-                        kept = Some(c);
-                    }
+                    fallback = Some(Fallback {
+                        check: c,
+                        fell_back: c.inefficiency_ratio > threshold,
+                    });
                 }
             }
         }
@@ -420,12 +414,6 @@ pub fn render_guided(
             last.update = update;
             last.cross_check = check;
         }
-    }
-    if fallback.is_none() {
-        fallback = kept.map(|check| Fallback {
-            check,
-            fell_back: false,
-        });
     }
 
     let weights = match settings.combine {
