@@ -91,11 +91,11 @@ pub struct GuidingArgs {
     /// Do not train on segments that escaped the scene (Rath et al. drop them).
     #[arg(long)]
     pub no_escaped: bool,
-    /// Never give up guiding. By default a time-budget render compares, after its first and second
-    /// guided training iterations, their images with the unguided first iteration's; where guiding's
-    /// relative error times its render time is more than 0.3 times the path tracer's at the first check,
-    /// or more than it at the second, it renders the rest of the budget unguided (the Cornell box,
-    /// veach-mis).
+    /// Never give up guiding. By default a time-budget render compares, after every guided training
+    /// iteration, the guided images so far with the unguided first iteration's; where guiding's relative
+    /// error times its render time is more than 0.3 times the path tracer's at the first check, more
+    /// than it at the second or more than twice it at a later one, it renders the rest of the budget
+    /// unguided (the Cornell box, veach-mis).
     #[arg(long)]
     pub no_fallback: bool,
     /// Octree relative split threshold (orth.threshold).
