@@ -156,7 +156,8 @@ pub struct GuidedOutput {
     pub stats: RenderStats,
     /// Per-iteration statistics.
     pub iterations: Vec<IterationStats>,
-    /// The fallback decision, if it was made.
+    /// The latest fallback check's decision (the one that gave up guiding, if any); `None` without a
+    /// check.
     pub fallback: Option<Fallback>,
 }
 
