@@ -94,8 +94,9 @@ pub struct GuidingArgs {
     /// Never give up guiding. By default a time-budget render compares, after every guided training
     /// iteration, the guided images so far with the unguided first iteration's; where guiding's relative
     /// error times its render time is more than 0.3 times the path tracer's at the first check, more
-    /// than it at the second or more than twice it at a later one, it renders the rest of the budget
-    /// unguided (the Cornell box, veach-mis).
+    /// than it at the second (more than half of it where the guided vertices' second-moment ratio shows
+    /// no gain) or more than twice it at a later one, it renders the rest of the budget unguided (the
+    /// Cornell box, veach-mis).
     #[arg(long)]
     pub no_fallback: bool,
     /// Octree relative split threshold (orth.threshold).

@@ -57,6 +57,38 @@ pub const MAX_TRAINING_PASS_SAMPLES: u64 = 1 << 20;
 /// were rendered with young guides, so a ratio near 1 still favours guiding the rest.
 pub const FALLBACK_THRESHOLDS: [f64; 3] = [0.3, 1.0, 2.0];
 
+/// The thresholds where the guided vertices' pooled second-moment ratio ([`IterationStats::moments`],
+/// BSDF alone over the mixture) is below 1, i.e. where the guide adds local variance rather than
+/// finding what the BSDF misses: the second check gives up at 0.5 instead of 1. That ratio is an
+/// importance-sampled estimate, steady where nothing is focal: veach-mis at 30 s, seeds 20–23, gave
+/// 0.77–0.87 in every guided iteration while the image checks read 0.16–0.22, 0.63–0.75, then
+/// 1.16–1.26, …, so guiding was kept for four or five iterations before the 2.0 threshold gave it up.
+/// On the focal scenes the second check stayed at most 0.12 (10 s, seeds 0–2: veach-bidir 0.08–0.12,
+/// the door gap 0.05–0.06, the lens focus 0.02–0.04, the rest below 0.01). Later checks keep 2.0:
+/// there the image check climbs on focal scenes (veach-bidir to 0.5) while their moment ratio
+/// wanders around 1.
+pub const FALLBACK_THRESHOLDS_WITHOUT_MOMENT_GAIN: [f64; 3] = [0.3, 0.5, 2.0];
+
+/// The threshold of the `check`-th fallback check (0-based) given the pooled second-moment ratio of the
+/// guided iterations so far (`None` without guided segments): [`FALLBACK_THRESHOLDS`], or
+/// [`FALLBACK_THRESHOLDS_WITHOUT_MOMENT_GAIN`] where the ratio is below 1.
+pub fn fallback_threshold(check: usize, moment_ratio: Option<f64>) -> f64 {
+    let table = match moment_ratio {
+        Some(r) if r < 1.0 => FALLBACK_THRESHOLDS_WITHOUT_MOMENT_GAIN,
+        _ => FALLBACK_THRESHOLDS,
+    };
+    table[check.min(table.len() - 1)]
+}
+
+/// The pooled ratio of [`IterationStats::moments`] over `iterations` (BSDF alone over the mixture), if
+/// any guided segment was recorded.
+fn pooled_moment_ratio<'a>(iterations: impl Iterator<Item = &'a IterationStats>) -> Option<f64> {
+    let [mix, bsdf] = iterations.fold([0.0f64; 2], |acc, s| {
+        [acc[0] + s.moments[0], acc[1] + s.moments[1]]
+    });
+    (mix > 0.0 && bsdf.is_finite()).then(|| bsdf / mix)
+}
+
 /// How long a guided render runs and how it is split into iterations.
 #[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub enum TrainingBudget {
@@ -391,8 +423,9 @@ pub fn render_guided(
                     && !settings.pretrained
                     && !fell_back(&fallback);
                 if let (true, Some(c)) = (checking, check) {
-                    let checks = FALLBACK_THRESHOLDS.len();
-                    let threshold = FALLBACK_THRESHOLDS[(guided_images.len() - 1).min(checks - 1)];
+                    let moment_ratio =
+                        pooled_moment_ratio(stats.iter().filter(|s| s.guided && s.training));
+                    let threshold = fallback_threshold(guided_images.len() - 1, moment_ratio);
                     fallback = Some(Fallback {
                         check: c,
                         fell_back: c.inefficiency_ratio > threshold,
@@ -494,5 +527,47 @@ pub fn render_guided(
         },
         iterations: stats,
         fallback,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn fallback_threshold_drops_at_the_second_check_without_moment_gain() {
+        assert_eq!(fallback_threshold(0, Some(0.5)), FALLBACK_THRESHOLDS[0]);
+        assert_eq!(fallback_threshold(1, Some(1.5)), FALLBACK_THRESHOLDS[1]);
+        assert_eq!(fallback_threshold(1, None), FALLBACK_THRESHOLDS[1]);
+        assert_eq!(fallback_threshold(1, Some(0.85)), 0.5);
+        const { assert!(FALLBACK_THRESHOLDS[1] > FALLBACK_THRESHOLDS_WITHOUT_MOMENT_GAIN[1]) };
+        assert_eq!(fallback_threshold(7, Some(0.85)), FALLBACK_THRESHOLDS[2]);
+        assert_eq!(fallback_threshold(7, Some(3.0)), FALLBACK_THRESHOLDS[2]);
+    }
+
+    fn iteration(moments: [f64; 2], guided: bool) -> IterationStats {
+        IterationStats {
+            index: 0,
+            guided,
+            training: true,
+            spp: 2,
+            render_s: 1.0,
+            samples_per_s: 1.0,
+            segments: 1,
+            moments,
+            record_s: 0.0,
+            update: None,
+            weight: 0.0,
+            cross_check: None,
+        }
+    }
+
+    #[test]
+    fn pooled_moment_ratio_sums_before_dividing() {
+        let its = [iteration([1.0, 3.0], true), iteration([3.0, 1.0], true)];
+        assert_eq!(pooled_moment_ratio(its.iter()), Some(1.0));
+        assert_eq!(pooled_moment_ratio(std::iter::empty()), None);
+        let inf = [iteration([1.0, f64::INFINITY], true)];
+        assert_eq!(pooled_moment_ratio(inf.iter()), None);
     }
 }
