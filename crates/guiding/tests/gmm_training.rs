@@ -461,6 +461,40 @@ fn stepwise_statistics_decay_and_the_schedule_switches_to_narrowing() {
 }
 
 #[test]
+fn narrowing_starts_at_the_configured_share_of_the_iterations() {
+    // (share, N, first narrowing iteration): the default 2/3 of 15 is 10 despite 2/3's rounding.
+    for (share, n, start) in [
+        (2.0 / 3.0, 15, 10),
+        (2.0 / 3.0, 6, 4),
+        (0.5, 6, 3),
+        (0.25, 4, 1),
+    ] {
+        let config = GmmConfig {
+            narrowing_start: share,
+            k_init: 2,
+            max_points: 4096,
+            ..GmmConfig::default()
+        };
+        let mut guide = GmmGuide::new(scene_box(), config).unwrap();
+        let mut rng = Rng(11);
+        for i in 0..n {
+            guide.record(&focal_batch(&mut rng, 500, 0.1));
+            let s = guide.update(&context(i, n));
+            assert_eq!(
+                detail(&s, "narrowing"),
+                (i >= start) as u8 as f64,
+                "share {share}, N {n}, iteration {i}"
+            );
+        }
+    }
+    let bad = GmmConfig {
+        narrowing_start: 1.5,
+        ..GmmConfig::default()
+    };
+    assert!(GmmGuide::new(scene_box(), bad).is_err());
+}
+
+#[test]
 fn recording_does_not_change_the_model_until_update() {
     let mut guide = train_foci(0.0, 2, 20_000, 8);
     let mut rng = Rng(9);

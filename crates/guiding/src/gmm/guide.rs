@@ -45,7 +45,7 @@ const MAX_ADAPTIVE_POINTS_PER_RAY: usize = 64;
 /// Magic prefix of [`GmmGuide::save`] snapshots.
 const SNAPSHOT_MAGIC: [u8; 8] = *b"FOCALGMM";
 /// Version of the snapshot layout.
-const SNAPSHOT_VERSION: u32 = 5;
+const SNAPSHOT_VERSION: u32 = 6;
 
 /// User parameters of the GMM guide (fields missing from a serialised config take their defaults).
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
@@ -75,6 +75,9 @@ pub struct GmmConfig {
     pub decay: f64,
     /// Use iterative narrowing from iteration ⌊2N/3⌋ (the continuous RAY_WEIGHTED splat).
     pub narrowing: bool,
+    /// The share of the N training iterations before narrowing (and its decay) starts: from iteration
+    /// ⌊share·N⌋ (Rath et al.: 2/3).
+    pub narrowing_start: f64,
     /// Prior covariance scale σ₀ as a fraction of the box diagonal.
     pub prior_sigma: f64,
     /// Prior pseudo-weight as a fraction of each mixture's total training weight.
@@ -148,6 +151,7 @@ impl Default for GmmConfig {
             max_rays: 2_000_000,
             decay: 0.5,
             narrowing: true,
+            narrowing_start: 2.0 / 3.0,
             prior_sigma: 1e-3,
             prior_strength: 1e-4,
             weight_floor: 1e-4,
@@ -210,6 +214,9 @@ impl GmmConfig {
         }
         if !(self.guide_fraction > 0.0 && self.guide_fraction < 1.0) {
             return fail("guide_fraction must lie in (0, 1)");
+        }
+        if !(0.0..=1.0).contains(&self.narrowing_start) {
+            return fail("narrowing_start must lie in [0, 1]");
         }
         if !(0.0..=1.0).contains(&self.origin_floor) {
             return fail("origin_floor must lie in [0, 1]");
@@ -866,7 +873,9 @@ impl GuidingDistribution for GmmGuide {
     /// has no pruning build.
     fn update(&mut self, ctx: &UpdateContext) -> UpdateStats {
         let start = Instant::now();
-        let narrowing_start = 2 * ctx.training_iterations / 3;
+        // The epsilon keeps ⌊(2/3)·15⌋ at 10 despite 2/3's rounding.
+        let narrowing_start =
+            (ctx.training_iterations as f64 * self.config.narrowing_start + 1e-9).floor() as u32;
         let narrowing_phase = ctx.iteration >= narrowing_start;
         let decay = if narrowing_phase {
             NARROWING_DECAY
