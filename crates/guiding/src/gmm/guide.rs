@@ -73,7 +73,7 @@ pub struct GmmConfig {
     pub max_rays: usize,
     /// Decay of the online statistics per update before iterative narrowing (afterwards 0.25).
     pub decay: f64,
-    /// Use iterative narrowing from iteration ⌊2N/3⌋ (the continuous RAY_WEIGHTED splat).
+    /// Use iterative narrowing from iteration ⌊`narrowing_start`·N⌋ (the continuous RAY_WEIGHTED splat).
     pub narrowing: bool,
     /// The share of the N training iterations before narrowing (and its decay) starts: from iteration
     /// ⌊share·N⌋ (Rath et al.: 2/3).
@@ -866,7 +866,7 @@ impl GuidingDistribution for GmmGuide {
     }
 
     /// Draws points along the buffered rays (stratified uniform, or by iterative narrowing against the
-    /// mixtures the rays were rendered with from iteration ⌊2N/3⌋), runs stepwise MAP-EM on each mixture
+    /// mixtures the rays were rendered with from iteration ⌊`narrowing_start`·N⌋), runs stepwise MAP-EM on each mixture
     /// with the decayed statistics of earlier updates (decay `config.decay`, 0.25 from narrowing), and sets
     /// p_div = W_div / (W_conv + W_div). Runs on the caller's rayon pool (`ctx.threads` is not used:
     /// the result is the same for any pool size); `ctx.final_build` changes nothing, since a mixture

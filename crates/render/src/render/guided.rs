@@ -63,8 +63,9 @@ pub const FALLBACK_THRESHOLDS: [f64; 3] = [0.3, 1.0, 2.0];
 /// importance-sampled estimate, steady where nothing is focal: veach-mis at 30 s, seeds 20–23, gave
 /// 0.77–0.87 in every guided iteration while the image checks read 0.16–0.22, 0.63–0.75, then
 /// 1.16–1.26, …, so guiding was kept for four or five iterations before the 2.0 threshold gave it up.
-/// On the focal scenes the second check stayed at most 0.12 (10 s, seeds 0–2: veach-bidir 0.08–0.12,
-/// the door gap 0.05–0.06, the lens focus 0.02–0.04, the rest below 0.01). Later checks keep 2.0:
+/// On the focal scenes the second check stayed at most 0.18 (10 s, seeds 0–2 and 40–42: veach-bidir
+/// 0.08–0.14 with the GMM guide and up to 0.18 with the octree, the door gap at most 0.08, the lens
+/// focus at most 0.05). Later checks keep 2.0:
 /// there the image check climbs on focal scenes (veach-bidir to 0.5) while their moment ratio
 /// wanders around 1.
 pub const FALLBACK_THRESHOLDS_WITHOUT_MOMENT_GAIN: [f64; 3] = [0.3, 0.5, 2.0];
@@ -83,10 +84,9 @@ pub fn fallback_threshold(check: usize, moment_ratio: Option<f64>) -> f64 {
 /// The pooled ratio of [`IterationStats::moments`] over `iterations` (BSDF alone over the mixture), if
 /// any guided segment was recorded.
 fn pooled_moment_ratio<'a>(iterations: impl Iterator<Item = &'a IterationStats>) -> Option<f64> {
-    let [mix, bsdf] = iterations.fold([0.0f64; 2], |acc, s| {
+    moment_ratio(iterations.fold([0.0f64; 2], |acc, s| {
         [acc[0] + s.moments[0], acc[1] + s.moments[1]]
-    });
-    (mix > 0.0 && bsdf.is_finite()).then(|| bsdf / mix)
+    }))
 }
 
 /// How long a guided render runs and how it is split into iterations.
@@ -129,7 +129,7 @@ pub struct GuidedRenderSettings {
     /// Give up guiding if it does not pay (time budget and inverse-variance combination only): after
     /// every guided training iteration the guided images so far are compared with the unguided first
     /// iteration's ([`cross_check`]); if guiding's inefficiency is more than the check's threshold
-    /// ([`FALLBACK_THRESHOLDS`]) times the path tracer's, training stops and the rest of the budget is
+    /// ([`fallback_threshold`]) times the path tracer's, training stops and the rest of the budget is
     /// rendered unguided, without the guide's cost (the Cornell box and veach-mis). The output then
     /// combines the unguided iterations by their sample counts.
     pub fallback: bool,
@@ -176,8 +176,13 @@ pub struct IterationStats {
 
 /// Writes [`IterationStats::moments`] as their ratio.
 fn serialize_moment_ratio<S: serde::Serializer>(m: &[f64; 2], s: S) -> Result<S::Ok, S::Error> {
-    let ratio = (m[0] > 0.0 && m[1].is_finite()).then(|| m[1] / m[0]);
-    serde::Serialize::serialize(&ratio, s)
+    serde::Serialize::serialize(&moment_ratio(*m), s)
+}
+
+/// The BSDF's over the mixture's second moment from their sums `[mixture, bsdf]`
+/// ([`IterationStats::moments`]), if there was a guided segment and the sum is finite.
+fn moment_ratio([mix, bsdf]: [f64; 2]) -> Option<f64> {
+    (mix > 0.0 && bsdf.is_finite()).then(|| bsdf / mix)
 }
 
 /// The result of a guided render.
@@ -199,7 +204,7 @@ pub struct Fallback {
     /// The comparison it was made on.
     pub check: CrossCheck,
     /// The render went on unguided (inefficiency ratio above the check's threshold,
-    /// [`FALLBACK_THRESHOLDS`]).
+    /// [`fallback_threshold`]).
     pub fell_back: bool,
 }
 
@@ -545,10 +550,10 @@ mod tests {
         assert_eq!(fallback_threshold(7, Some(3.0)), FALLBACK_THRESHOLDS[2]);
     }
 
-    fn iteration(moments: [f64; 2], guided: bool) -> IterationStats {
+    fn iteration(moments: [f64; 2]) -> IterationStats {
         IterationStats {
             index: 0,
-            guided,
+            guided: true,
             training: true,
             spp: 2,
             render_s: 1.0,
@@ -564,10 +569,10 @@ mod tests {
 
     #[test]
     fn pooled_moment_ratio_sums_before_dividing() {
-        let its = [iteration([1.0, 3.0], true), iteration([3.0, 1.0], true)];
+        let its = [iteration([1.0, 3.0]), iteration([3.0, 1.0])];
         assert_eq!(pooled_moment_ratio(its.iter()), Some(1.0));
         assert_eq!(pooled_moment_ratio(std::iter::empty()), None);
-        let inf = [iteration([1.0, f64::INFINITY], true)];
+        let inf = [iteration([1.0, f64::INFINITY])];
         assert_eq!(pooled_moment_ratio(inf.iter()), None);
     }
 }
