@@ -80,8 +80,9 @@ pub struct GuidingArgs {
     #[arg(long, default_value = "variance")]
     pub combine: String,
     /// Probability of sampling the guide instead of the BSDF at every guided vertex, for either guide.
-    /// Without it the octree uses 0.5 (Rath et al.) and the GMM its own `--gmm guide_fraction=` (0.75),
-    /// or with `--gmm learn_selection=true` a fraction learned per region for the final render.
+    /// Without it the octree uses 0.5 (Rath et al.) and the GMM its own `--gmm guide_fraction=` (0.75)
+    /// while training and a fraction learned per region for the final render (between
+    /// `--gmm selection_min=` 0.4 and 0.75; `--gmm learn_selection=false` keeps 0.75).
     #[arg(long)]
     pub guide_fraction: Option<f32>,
     /// Russian roulette of guided renders: albedo (default; survival by the product of BSDF albedos),

@@ -29,10 +29,11 @@
 //! each part is: where the guide-covered light is a caustic that even the guide finds rarely (the
 //! shaded lights' mirrors), it chooses too little.
 //!
-//! The GMM guide uses it only on request (`GmmConfig::learn_selection`), and then only for the final
-//! render. Measured at equal time it did not beat the fixed fraction on focal scenes, with the absolute
+//! The GMM guide uses it for the final render only (`GmmConfig::learn_selection`, on by default with the
+//! share rule and a least fraction of 0.4; training iterations keep the fixed fraction). With the second-
+//! moment rule it did not beat the fixed fraction on focal scenes at equal time, with the absolute
 //! second moment (dominated by bright pixels) nor with the emission- and pixel-weighted one (see the GMM
-//! config); it is kept, with its tests, as the measured starting point.
+//! config).
 
 use crate::{Aabb3, TrainingSegment};
 use glam::Vec3;

@@ -209,15 +209,19 @@ fn learned_selection_keeps_the_mean() {
     assert!(skip > 0.0 && skip < 1.0, "skip share {skip}");
 }
 
-/// The share rule's fractions (learned per cell on the floor, the fixed one on the glass ball) are a
-/// per-vertex α too: the caustic's mean must not move.
+/// The share rule's fractions (the default; learned per cell on the floor, the fixed one on the glass
+/// ball) are a per-vertex α too: the caustic's mean must not move.
 #[test]
 fn share_rule_selection_keeps_the_mean() {
-    let mut params = GuideParams::default();
-    params.gmm.learn_selection = true;
+    let params = GuideParams::default();
+    assert!(
+        params.gmm.learn_selection && params.gmm.selection_by_share,
+        "the default"
+    );
     let mean = check_selection_keeps_the_mean(&params, "selection_mean");
     // Learned fractions strictly inside the clamp's range on average: the rule did choose.
-    assert!(mean > 0.1 && mean < 0.75, "mean fraction {mean}");
+    let (lo, hi) = (params.gmm.selection_min, params.gmm.guide_fraction);
+    assert!(mean > lo as f64 && mean < hi as f64, "mean fraction {mean}");
 }
 
 #[test]
