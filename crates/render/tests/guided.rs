@@ -196,9 +196,10 @@ fn check_selection_keeps_the_mean(params: &GuideParams, name: &str) -> f64 {
         .expect("the guide reports its selection")
 }
 
-/// The learned selection probability (opt-in) samples the BSDF alone where it chose 0, the guide with
-/// α = 0.5 at an exploring eighth of those vertices, and its own choice elsewhere: a per-vertex random
-/// α, which must keep the estimator unbiased. On the caustic it chooses 0 in most cells and larger
+/// The learned selection probability by least second moment (opt-in: `selection_by_share=false`)
+/// samples the BSDF alone where it chose 0, the guide with α = 0.5 at an exploring eighth of those
+/// vertices, and its own choice elsewhere: a per-vertex random α, which must keep the estimator
+/// unbiased. On the caustic it chooses 0 in most cells and larger
 /// fractions near the ball, so all three cases occur.
 #[test]
 fn learned_selection_keeps_the_mean() {

@@ -106,8 +106,9 @@ pub struct GmmConfig {
     /// (per-seed ratios over the 50 pairs of the second: 0.92 → 0.82; by medians 1.09 → 1.11 and
     /// 0.91 → 0.98), and a third, side by side (seeds 70–72), from 0.90 to 0.66 (medians 0.80 →
     /// 0.59): fewer runs lost to fireflies (lens focus, shaded lights, glass caustic), and the
-    /// door gap and veach-bidir stop spending 0.75 where other paths light the room; own camera
-    /// obscura and the reference obscura lose 1.2–1.6×. Minimising each region's absolute second
+    /// door gap and veach-bidir stop spending 0.75 where other paths light the room. The reference
+    /// and own camera obscura lost 1.2–1.7× in the second batch but gained (0.66×, 0.75×) in the
+    /// third: within the seed-to-seed noise. Minimising each region's absolute second
     /// moment Σc² chose fractions below 0.5 where the guide was good (obscura: 0.33–0.4) and lost to the
     /// fixed fraction at equal time. With NEE-aware emission and per-pixel weights
     /// ([`TrainingSegment::second_moment_with_fraction`]) it still did (20 s, seeds 0 and 1: caustic
