@@ -97,7 +97,7 @@ pub struct GuidingArgs {
     /// error times its render time is more than 0.3 times the path tracer's at the first check, more
     /// than it at the second (more than half of it where the guided vertices' second-moment ratio shows
     /// no gain) or more than twice it at a later one, it renders the rest of the budget unguided (the
-    /// Cornell box, veach-mis).
+    /// Cornell box, veach-mis). Guiding is kept whatever the images say where that ratio is at least 2.
     #[arg(long)]
     pub no_fallback: bool,
     /// Octree relative split threshold (orth.threshold).
