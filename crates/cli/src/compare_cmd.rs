@@ -12,6 +12,7 @@ use focal_render::color::srgb_to_linear;
 use focal_render::film::Image;
 use focal_render::metrics::{image_errors, per_pixel_errors, ImageErrors};
 use focal_render::render::guide_view::viridis;
+use focal_render::two_reference::two_reference_rel_mse;
 use std::path::{Path, PathBuf};
 
 /// Arguments of `focal compare`.
@@ -35,6 +36,12 @@ pub struct CompareArgs {
     /// The reference image (EXR).
     #[arg(long)]
     pub reference: PathBuf,
+    /// A second reference, rendered independently of the first (another method or seed): every run's
+    /// relMSE is then also estimated against the true image, with both references' noise taken out
+    /// (see `focal metrics --second-reference`). Use it when the reference is itself noisy, as long
+    /// renders of focal scenes often are.
+    #[arg(long, value_name = "EXR")]
+    pub second_reference: Option<PathBuf>,
     /// Output folder.
     #[arg(long, default_value = "compare")]
     pub out: PathBuf,
@@ -90,6 +97,8 @@ struct Row {
     errors: ImageErrors,
     /// Mean LDR-FLIP of the PNG tonemapping (`--exposure`).
     ldr_flip: f64,
+    /// relMSE against the true image from both references (with `--second-reference`).
+    rel_mse_two_references: Option<f64>,
 }
 
 /// Runs `focal compare`.
@@ -99,6 +108,10 @@ pub fn run(a: CompareArgs) -> Result<()> {
     }
     let reference = Image::read_exr(&a.reference)
         .with_context(|| format!("reading {}", a.reference.display()))?;
+    let second_reference = match &a.second_reference {
+        Some(p) => Some(Image::read_exr(p).with_context(|| format!("reading {}", p.display()))?),
+        None => None,
+    };
     std::fs::create_dir_all(&a.out).with_context(|| format!("creating {}", a.out.display()))?;
     // A reference rendered with one of the runs' seeds shares their first samples: its error would be
     // too small for the unguided methods.
@@ -158,6 +171,11 @@ pub fn run(a: CompareArgs) -> Result<()> {
             let image = Image::read_exr(&output)?;
             let errors = image_errors(&image, &reference, a.epsilon, a.outliers)
                 .map_err(anyhow::Error::msg)?;
+            let rel_mse_two_references = second_reference
+                .as_ref()
+                .map(|b| two_reference_rel_mse(&image, &reference, b, a.epsilon, a.outliers))
+                .transpose()
+                .map_err(anyhow::Error::msg)?;
             let sidecar: serde_json::Value =
                 serde_json::from_str(&std::fs::read_to_string(output.with_extension("json"))?)?;
             if seed == 0 {
@@ -192,14 +210,17 @@ pub fn run(a: CompareArgs) -> Result<()> {
                 seconds,
                 errors,
                 ldr_flip,
+                rel_mse_two_references,
             });
         }
     }
     let _ = std::fs::remove_dir(&curve_dir);
-    let mut csv = String::from("method,seed,spp,seconds,rel_mse,mse,mape,smape,ldr_flip\n");
+    let mut csv = String::from(
+        "method,seed,spp,seconds,rel_mse,mse,mape,smape,ldr_flip,rel_mse_two_references\n",
+    );
     for r in &rows {
         csv += &format!(
-            "{},{},{},{:.3},{:.6e},{:.6e},{:.6e},{:.6e},{:.6e}\n",
+            "{},{},{},{:.3},{:.6e},{:.6e},{:.6e},{:.6e},{:.6e},{}\n",
             r.method,
             r.seed,
             r.spp,
@@ -208,7 +229,9 @@ pub fn run(a: CompareArgs) -> Result<()> {
             r.errors.mse,
             r.errors.mape,
             r.errors.smape,
-            r.ldr_flip
+            r.ldr_flip,
+            r.rel_mse_two_references
+                .map_or(String::new(), |v| format!("{v:.6e}"))
         );
     }
     std::fs::write(a.out.join("metrics.csv"), csv)?;
@@ -234,6 +257,7 @@ pub fn run(a: CompareArgs) -> Result<()> {
         serde_json::to_string_pretty(&serde_json::json!({
             "scene": a.scene.display().to_string(),
             "reference": a.reference.display().to_string(),
+            "second_reference": a.second_reference.as_ref().map(|p| p.display().to_string()),
             "time_s": a.time,
             "spp": a.spp,
             "epsilon": a.epsilon,
@@ -243,7 +267,7 @@ pub fn run(a: CompareArgs) -> Result<()> {
             "convergence": curve,
         }))? + "\n",
     )?;
-    let header = [
+    let mut header = vec![
         "method",
         "seeds",
         "spp",
@@ -257,6 +281,9 @@ pub fn run(a: CompareArgs) -> Result<()> {
         "LDR-FLIP",
         "relMSE / first",
     ];
+    if second_reference.is_some() {
+        header.push("relMSE vs truth (two references)");
+    }
     let base = summaries.first().map_or(1.0, |s| s.rel_mse_mean);
     let table_rows: Vec<Vec<String>> = summaries
         .iter()
@@ -275,6 +302,9 @@ pub fn run(a: CompareArgs) -> Result<()> {
                 format!("{:.4}", s.ldr_flip),
                 format!("{:.3}", s.rel_mse_mean / base),
             ]
+            .into_iter()
+            .chain(s.rel_mse_two_references_mean.map(|t| format!("{t:.4e}")))
+            .collect()
         })
         .collect();
     println!(
@@ -292,6 +322,19 @@ pub fn run(a: CompareArgs) -> Result<()> {
             s.mape,
             s.rel_mse_mean / base
         );
+    }
+    if let Some(base_truth) = summaries
+        .first()
+        .and_then(|s| s.rel_mse_two_references_mean)
+    {
+        println!(
+            "relMSE against the true image, both references' noise taken out (mean over seeds):"
+        );
+        for s in &summaries {
+            if let Some(t) = s.rel_mse_two_references_mean {
+                println!("{:<8} {:>13.4e} {:>10.3}", s.method, t, t / base_truth);
+            }
+        }
     }
 
     // Convergence curves: per method and budget, the mean over seeds of the error and of the budget used.
@@ -476,6 +519,8 @@ struct Summary {
     mape: f64,
     smape: f64,
     ldr_flip: f64,
+    /// Mean over seeds of the two-reference relMSE (with `--second-reference`).
+    rel_mse_two_references_mean: Option<f64>,
 }
 
 fn summarise(method: &str, rows: &[Row]) -> Summary {
@@ -507,6 +552,11 @@ fn summarise(method: &str, rows: &[Row]) -> Summary {
         mape: mean(&|r| r.errors.mape),
         smape: mean(&|r| r.errors.smape),
         ldr_flip: mean(&|r| r.ldr_flip),
+        rel_mse_two_references_mean: rs
+            .iter()
+            .map(|r| r.rel_mse_two_references)
+            .sum::<Option<f64>>()
+            .map(|t| t / n),
     }
 }
 

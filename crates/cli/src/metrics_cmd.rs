@@ -5,6 +5,7 @@ use anyhow::{Context, Result};
 use clap::Args;
 use focal_render::film::Image;
 use focal_render::metrics::{image_errors, DEFAULT_REL_EPSILON, FIREFLY_PIXEL_FRACTION};
+use focal_render::two_reference::two_reference_rel_mse;
 use std::io::Write;
 use std::path::PathBuf;
 
@@ -24,6 +25,11 @@ pub struct MetricsArgs {
     /// Exposure (stops) of the tonemapping before LDR-FLIP.
     #[arg(long, default_value_t = 0.0)]
     pub flip_exposure: f32,
+    /// A second reference, rendered independently of the first and of the image: also print the
+    /// image's relMSE against the true image, with both references' own noise taken out
+    /// (mean of (x − a)(x − b)/(m² + ε), m = (a + b)/2; the same outliers dropped).
+    #[arg(long, value_name = "EXR")]
+    pub second_reference: Option<PathBuf>,
     /// Print JSON instead of a table.
     #[arg(long)]
     pub json: bool,
@@ -36,10 +42,20 @@ pub fn run(a: MetricsArgs) -> Result<()> {
     let reference = read(&a.reference)?;
     let e = image_errors(&image, &reference, a.epsilon, a.outliers).map_err(anyhow::Error::msg)?;
     let (flip, _) = ldr_flip(&image, &reference, a.flip_exposure)?;
+    let truth = match &a.second_reference {
+        Some(p) => Some(
+            two_reference_rel_mse(&image, &reference, &read(p)?, a.epsilon, a.outliers)
+                .map_err(anyhow::Error::msg)?,
+        ),
+        None => None,
+    };
     let mut text = if a.json {
         let mut v = serde_json::to_value(e)?;
         v["ldr_flip"] = serde_json::json!(flip);
         v["flip_exposure"] = serde_json::json!(a.flip_exposure);
+        if let Some(t) = truth {
+            v["rel_mse_two_references"] = serde_json::json!(t);
+        }
         serde_json::to_string_pretty(&v)? + "\n"
     } else {
         format!(
@@ -60,6 +76,9 @@ pub fn run(a: MetricsArgs) -> Result<()> {
             e.rel_mse_top_share * 100.0,
             FIREFLY_PIXEL_FRACTION * 100.0
         );
+        if let Some(t) = truth {
+            text += &format!("relMSE against the truth, both references' noise removed {t:.6e}\n");
+        }
     }
     // A closed pipe (`| head`) is the reader's choice, not an error worth a panic.
     let _ = std::io::stdout().lock().write_all(text.as_bytes());

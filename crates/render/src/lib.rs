@@ -26,6 +26,7 @@ pub mod sampler;
 pub mod scene;
 pub mod testing;
 pub mod texture;
+pub mod two_reference;
 pub mod warp;
 
 /// The guiding library this renderer links (re-exported so tools need not depend on it separately).

@@ -1,0 +1,130 @@
+//! With two independent noisy references, `focal metrics --second-reference` finds an image's error
+//! against the true image (here: a reference with 32× the samples), where one noisy reference inflates
+//! it; `focal compare --second-reference` reports the same estimate per run.
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+fn focal(args: &[&str]) -> String {
+    let out = Command::new(env!("CARGO_BIN_EXE_focal"))
+        .args(args)
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "focal {args:?} failed: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    String::from_utf8(out.stdout).unwrap()
+}
+
+fn scene() -> String {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../../scenes/cbox.xml")
+        .to_str()
+        .unwrap()
+        .to_string()
+}
+
+/// A path-traced Cornell box of 32×32 pixels at `spp` with `seed`.
+fn render(dir: &Path, name: &str, spp: u32, seed: u32) -> PathBuf {
+    let out = dir.join(format!("{name}.exr"));
+    let (spp, seed) = (spp.to_string(), seed.to_string());
+    focal(&[
+        "reference",
+        &scene(),
+        "-D",
+        "res=32",
+        "--spp",
+        &spp,
+        "--pass-spp",
+        "16",
+        "--checkpoint-every",
+        "0",
+        "--seed",
+        &seed,
+        "-q",
+        "-o",
+        out.to_str().unwrap(),
+    ]);
+    out
+}
+
+fn metrics(image: &Path, reference: &Path, second: Option<&Path>) -> serde_json::Value {
+    let mut args = vec![
+        "metrics",
+        image.to_str().unwrap(),
+        reference.to_str().unwrap(),
+        "--json",
+    ];
+    if let Some(s) = second {
+        args.extend(["--second-reference", s.to_str().unwrap()]);
+    }
+    serde_json::from_str(&focal(&args)).unwrap()
+}
+
+#[test]
+fn two_noisy_references_recover_the_error_against_a_far_better_one() {
+    let d = std::env::temp_dir().join(format!("focal-two-refs-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).unwrap();
+    let image = render(&d, "image", 32, 1);
+    let a = render(&d, "a", 32, 2);
+    let b = render(&d, "b", 32, 3);
+    let truth = render(&d, "truth", 1024, 4);
+    let against_truth = metrics(&image, &truth, None)["rel_mse"].as_f64().unwrap();
+    let against_a = metrics(&image, &a, None)["rel_mse"].as_f64().unwrap();
+    let two = metrics(&image, &a, Some(&b));
+    let estimate = two["rel_mse_two_references"].as_f64().unwrap();
+    // References as noisy as the image double its apparent error; the two-reference estimate does not
+    // (the long reference still holds 1/32 of the image's variance, and 1024 pixels leave some noise).
+    assert!(
+        against_a > 1.6 * against_truth,
+        "{against_a} {against_truth}"
+    );
+    assert!(
+        (estimate / against_truth - 1.0).abs() < 0.25,
+        "two-reference estimate {estimate}, against the long reference {against_truth}, \
+         against one short reference {against_a}"
+    );
+    assert!(metrics(&image, &a, None)
+        .get("rel_mse_two_references")
+        .is_none());
+
+    let out = d.join("compare");
+    focal(&[
+        "compare",
+        &scene(),
+        "-D",
+        "res=32",
+        "--spp",
+        "8",
+        "--methods",
+        "pt",
+        "--curve-points",
+        "1",
+        "--reference",
+        a.to_str().unwrap(),
+        "--second-reference",
+        b.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    let csv = std::fs::read_to_string(out.join("metrics.csv")).unwrap();
+    let mut lines = csv.lines();
+    let header: Vec<&str> = lines.next().unwrap().split(',').collect();
+    let column = header
+        .iter()
+        .position(|h| *h == "rel_mse_two_references")
+        .expect("two-reference column");
+    let value: f64 = lines
+        .next()
+        .unwrap()
+        .split(',')
+        .nth(column)
+        .unwrap()
+        .parse()
+        .unwrap();
+    assert!(value.is_finite() && value > 0.0, "{csv}");
+    let _ = std::fs::remove_dir_all(&d);
+}
