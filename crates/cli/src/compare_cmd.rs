@@ -114,17 +114,30 @@ pub fn run(a: CompareArgs) -> Result<()> {
     };
     std::fs::create_dir_all(&a.out).with_context(|| format!("creating {}", a.out.display()))?;
     // A reference rendered with one of the runs' seeds shares their first samples: its error would be
-    // too small for the unguided methods.
-    if let Some(seed) = std::fs::read_to_string(a.reference.with_extension("json"))
-        .ok()
-        .and_then(|t| serde_json::from_str::<serde_json::Value>(&t).ok())
-        .and_then(|v| v["seed"].as_u64())
-    {
-        if seed < a.seeds {
+    // too small for the unguided methods. Two references of one seed share theirs, which the
+    // two-reference estimate assumes they do not.
+    let seed_of = |p: &Path| {
+        std::fs::read_to_string(p.with_extension("json"))
+            .ok()
+            .and_then(|t| serde_json::from_str::<serde_json::Value>(&t).ok())
+            .and_then(|v| v["seed"].as_u64())
+    };
+    let seeds: Vec<Option<u64>> = std::iter::once(&a.reference)
+        .chain(&a.second_reference)
+        .map(|p| seed_of(p))
+        .collect();
+    for seed in seeds.iter().flatten().filter(|s| **s < a.seeds) {
+        eprintln!(
+            "warning: a reference was rendered with seed {seed}, which the runs use too; \
+             its noise is correlated with theirs (render references with `focal reference`, \
+             whose default seed avoids this)"
+        );
+    }
+    if let [Some(s1), Some(s2)] = seeds[..] {
+        if s1 == s2 {
             eprintln!(
-                "warning: the reference was rendered with seed {seed}, which the runs use too; \
-                 its noise is correlated with theirs (render references with `focal reference`, \
-                 whose default seed avoids this)"
+                "warning: both references were rendered with seed {s1}: if by the same method, \
+                 their noise is shared and the error against the truth comes out too small"
             );
         }
     }
