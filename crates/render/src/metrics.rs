@@ -80,7 +80,7 @@ pub fn per_pixel_errors(
 }
 
 /// A non-finite value counts as 0 (images written by focal never hold one; others might).
-fn finite(v: f32) -> f64 {
+pub(crate) fn finite(v: f32) -> f64 {
     if v.is_finite() {
         v as f64
     } else {

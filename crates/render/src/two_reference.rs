@@ -19,7 +19,7 @@
 //! noisy as 20 % per pixel thus leave 6 % of their noise in the estimate instead of all of it.
 
 use crate::film::Image;
-use crate::metrics::trimmed_mean;
+use crate::metrics::{finite, trimmed_mean};
 
 /// Per-pixel estimates (averaged over the channels) of (x − μ)²/(μ² + ε) for `image` from the independent
 /// references `a` and `b`: (x − a)(x − b)/(m² + ε) with m = (a + b)/2. Non-finite values count as 0.
@@ -37,7 +37,6 @@ pub fn per_pixel_two_reference_errors(
             ));
         }
     }
-    let finite = |v: f32| if v.is_finite() { v as f64 } else { 0.0 };
     Ok(image
         .rgb
         .iter()
