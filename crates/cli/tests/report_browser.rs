@@ -4,21 +4,13 @@
 //! Needs Debian's `chromium` (`.ci/run` installs it); without it the test says so loudly and skips,
 //! except under CI (`CI` set), where a missing browser is a failure.
 
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
-fn focal(args: &[&str]) {
-    let out = Command::new(env!("CARGO_BIN_EXE_focal"))
-        .args(args)
-        .output()
-        .unwrap();
-    assert!(
-        out.status.success(),
-        "focal {args:?} failed: {}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-}
+mod common;
+
+use common::{cbox, focal};
 
 fn chromium() -> Option<PathBuf> {
     ["/usr/bin/chromium", "/usr/bin/chromium-browser"]
@@ -42,7 +34,7 @@ fn report_opens_in_chromium_and_its_slider_switches_images() {
     let d = std::env::temp_dir().join(format!("focal-report-browser-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&d);
     std::fs::create_dir_all(&d).unwrap();
-    let scene = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenes/cbox.xml");
+    let scene = cbox();
     let scene = scene.to_str().unwrap();
     let reference = d.join("ref.exr");
     let r = reference.to_str().unwrap();

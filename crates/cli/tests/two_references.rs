@@ -2,28 +2,13 @@
 //! against the true image (here: a reference with 32× the samples), where one noisy reference inflates
 //! it; `focal compare --second-reference` reports the same estimate per run.
 
-use std::path::{Path, PathBuf};
-use std::process::Command;
+mod common;
 
-fn focal(args: &[&str]) -> String {
-    let out = Command::new(env!("CARGO_BIN_EXE_focal"))
-        .args(args)
-        .output()
-        .unwrap();
-    assert!(
-        out.status.success(),
-        "focal {args:?} failed: {}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    String::from_utf8(out.stdout).unwrap()
-}
+use common::{cbox, focal};
+use std::path::{Path, PathBuf};
 
 fn scene() -> String {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../../scenes/cbox.xml")
-        .to_str()
-        .unwrap()
-        .to_string()
+    cbox().to_str().unwrap().to_string()
 }
 
 /// A path-traced Cornell box of 32×32 pixels at `spp` with `seed`.
@@ -60,7 +45,7 @@ fn metrics(image: &Path, reference: &Path, second: Option<&Path>) -> serde_json:
     if let Some(s) = second {
         args.extend(["--second-reference", s.to_str().unwrap()]);
     }
-    serde_json::from_str(&focal(&args)).unwrap()
+    serde_json::from_slice(&focal(&args).stdout).unwrap()
 }
 
 #[test]
@@ -73,7 +58,8 @@ fn two_noisy_references_recover_the_error_against_a_far_better_one() {
     let b = render(&d, "b", 32, 3);
     let truth = render(&d, "truth", 1024, 4);
     let against_truth = metrics(&image, &truth, None)["rel_mse"].as_f64().unwrap();
-    let against_a = metrics(&image, &a, None)["rel_mse"].as_f64().unwrap();
+    let one = metrics(&image, &a, None);
+    let against_a = one["rel_mse"].as_f64().unwrap();
     let two = metrics(&image, &a, Some(&b));
     let estimate = two["rel_mse_two_references"].as_f64().unwrap();
     // References as noisy as the image double its apparent error; the two-reference estimate does not
@@ -87,9 +73,7 @@ fn two_noisy_references_recover_the_error_against_a_far_better_one() {
         "two-reference estimate {estimate}, against the long reference {against_truth}, \
          against one short reference {against_a}"
     );
-    assert!(metrics(&image, &a, None)
-        .get("rel_mse_two_references")
-        .is_none());
+    assert!(one.get("rel_mse_two_references").is_none());
 
     let out = d.join("compare");
     focal(&[

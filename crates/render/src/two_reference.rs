@@ -73,27 +73,14 @@ mod tests {
     use super::*;
     use crate::metrics::image_errors;
 
-    /// Splitmix64: a small deterministic generator for the synthetic noise.
-    struct Rng(u64);
-    impl Rng {
-        fn uniform(&mut self) -> f64 {
-            self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-            let mut z = self.0;
-            z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-            z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-            ((z ^ (z >> 31)) >> 11) as f64 / (1u64 << 53) as f64
-        }
-        /// A zero-mean value of standard deviation `sigma` (uniform, so its variance is exact).
-        fn noise(&mut self, sigma: f64) -> f64 {
-            (self.uniform() - 0.5) * sigma * 12f64.sqrt()
-        }
-    }
+    use focal_testkit::TestRng;
 
-    fn noisy(truth: &[f64], sigma: f64, rng: &mut Rng) -> Image {
+    /// `truth` with zero-mean uniform noise of relative standard deviation `sigma` on every channel.
+    fn noisy(truth: &[f64], sigma: f64, rng: &mut TestRng) -> Image {
         let mut img = Image::new(truth.len() as u32, 1);
         for (p, t) in img.rgb.iter_mut().zip(truth) {
             for v in p.iter_mut() {
-                *v = (t + rng.noise(sigma * t)) as f32;
+                *v = (t + (rng.next_f64() - 0.5) * 12f64.sqrt() * sigma * t) as f32;
             }
         }
         img
@@ -103,7 +90,7 @@ mod tests {
     fn recovers_the_error_against_the_truth_from_noisy_references() {
         // Relative noise σ: the true relMSE is about σ² (ε small against the values).
         let truth: Vec<f64> = (0..200_000).map(|i| 1.0 + (i % 7) as f64).collect();
-        let mut rng = Rng(7);
+        let mut rng = TestRng::new(7);
         let (sx, sr) = (0.1, 0.1);
         let x = noisy(&truth, sx, &mut rng);
         let a = noisy(&truth, sr, &mut rng);
