@@ -85,6 +85,17 @@ struct CurvePoint {
     spp: u64,
     seconds: f64,
     errors: ImageErrors,
+    /// relMSE against the true image from both references (with `--second-reference`).
+    rel_mse_two_references: Option<f64>,
+}
+
+/// What `compare` reads back from one finished run.
+struct Judgement {
+    image: Image,
+    errors: ImageErrors,
+    rel_mse_two_references: Option<f64>,
+    spp: u64,
+    seconds: f64,
 }
 
 /// One render's numbers.
@@ -164,7 +175,7 @@ pub fn run(a: CompareArgs) -> Result<()> {
                 args.spp = a.spp.map(|n| (n >> k).max(1));
                 args.time = a.time.map(|t| t / (1u64 << k) as f64);
                 render_cmd::run(args).with_context(|| format!("rendering with {method}"))?;
-                let (errors, spp, seconds) = judge(&output, &reference, &a)?;
+                let j = judge(&output, &reference, second_reference.as_ref(), &a)?;
                 for ext in ["exr", "json"] {
                     let _ = std::fs::remove_file(output.with_extension(ext));
                 }
@@ -172,25 +183,23 @@ pub fn run(a: CompareArgs) -> Result<()> {
                     method: method.clone(),
                     seed,
                     budget_halvings: k,
-                    spp,
-                    seconds,
-                    errors,
+                    spp: j.spp,
+                    seconds: j.seconds,
+                    errors: j.errors,
+                    rel_mse_two_references: j.rel_mse_two_references,
                 });
             }
             let output = a.out.join(format!("{method}_s{seed}.exr"));
             let guide_image = seed == 0 && method != "pt" && method != "none";
             let args = run_args(&a, method, seed, &output, guide_image);
             render_cmd::run(args).with_context(|| format!("rendering with {method}"))?;
-            let image = Image::read_exr(&output)?;
-            let errors = image_errors(&image, &reference, a.epsilon, a.outliers)
-                .map_err(anyhow::Error::msg)?;
-            let rel_mse_two_references = second_reference
-                .as_ref()
-                .map(|b| two_reference_rel_mse(&image, &reference, b, a.epsilon, a.outliers))
-                .transpose()
-                .map_err(anyhow::Error::msg)?;
-            let sidecar: serde_json::Value =
-                serde_json::from_str(&std::fs::read_to_string(output.with_extension("json"))?)?;
+            let Judgement {
+                image,
+                errors,
+                rel_mse_two_references,
+                spp,
+                seconds,
+            } = judge(&output, &reference, second_reference.as_ref(), &a)?;
             if seed == 0 {
                 write_error_image(
                     &image,
@@ -199,8 +208,6 @@ pub fn run(a: CompareArgs) -> Result<()> {
                     &a.out.join(format!("{method}_relmse.png")),
                 )?;
             }
-            let spp = sidecar["spp"].as_u64().unwrap_or(0);
-            let seconds = sidecar["render_s"].as_f64().unwrap_or(0.0);
             curve.push(CurvePoint {
                 method: method.clone(),
                 seed,
@@ -208,6 +215,7 @@ pub fn run(a: CompareArgs) -> Result<()> {
                 spp,
                 seconds,
                 errors,
+                rel_mse_two_references,
             });
             let (ldr_flip, flip_map) = ldr_flip(&image, &reference, a.exposure)?;
             if seed == 0 {
@@ -248,10 +256,12 @@ pub fn run(a: CompareArgs) -> Result<()> {
         );
     }
     std::fs::write(a.out.join("metrics.csv"), csv)?;
-    let mut ccsv = String::from("method,seed,budget_halvings,spp,seconds,rel_mse,mse,mape,smape\n");
+    let mut ccsv = String::from(
+        "method,seed,budget_halvings,spp,seconds,rel_mse,mse,mape,smape,rel_mse_two_references\n",
+    );
     for c in &curve {
         ccsv += &format!(
-            "{},{},{},{},{:.3},{:.6e},{:.6e},{:.6e},{:.6e}\n",
+            "{},{},{},{},{:.3},{:.6e},{:.6e},{:.6e},{:.6e},{}\n",
             c.method,
             c.seed,
             c.budget_halvings,
@@ -260,7 +270,9 @@ pub fn run(a: CompareArgs) -> Result<()> {
             c.errors.rel_mse,
             c.errors.mse,
             c.errors.mape,
-            c.errors.smape
+            c.errors.smape,
+            c.rel_mse_two_references
+                .map_or(String::new(), |v| format!("{v:.6e}"))
         );
     }
     std::fs::write(a.out.join("convergence.csv"), ccsv)?;
@@ -350,7 +362,17 @@ pub fn run(a: CompareArgs) -> Result<()> {
         }
     }
 
-    // Convergence curves: per method and budget, the mean over seeds of the error and of the budget used.
+    // Convergence curves: per method and budget, the mean over seeds of the error and of the budget used;
+    // the error against the truth from both references where there are two (a noisy reference flattens
+    // the one-reference curves as the runs' own error approaches its).
+    let truth_curves = second_reference.is_some();
+    let error_of = |c: &CurvePoint| {
+        if truth_curves {
+            c.rel_mse_two_references.unwrap_or(f64::NAN)
+        } else {
+            c.errors.rel_mse
+        }
+    };
     let curves = |x: &dyn Fn(&CurvePoint) -> f64| -> Vec<Curve> {
         methods
             .iter()
@@ -367,7 +389,7 @@ pub fn run(a: CompareArgs) -> Result<()> {
                             let n = pts.len() as f64;
                             (
                                 pts.iter().map(|c| x(c)).sum::<f64>() / n,
-                                pts.iter().map(|c| c.errors.rel_mse).sum::<f64>() / n,
+                                pts.iter().map(|c| error_of(c)).sum::<f64>() / n,
                             )
                         })
                     })
@@ -375,7 +397,16 @@ pub fn run(a: CompareArgs) -> Result<()> {
             })
             .collect()
     };
-    let y_label = format!("relMSE (ε = {}), mean over {} seed(s)", a.epsilon, a.seeds);
+    let y_label = format!(
+        "relMSE{} (ε = {}), mean over {} seed(s)",
+        if truth_curves {
+            " vs truth (two references)"
+        } else {
+            ""
+        },
+        a.epsilon,
+        a.seeds
+    );
     write_loglog_svg(
         &a.out.join("convergence_time.svg"),
         "error vs time (training included)",
@@ -615,18 +646,29 @@ fn run_args(
     }
 }
 
-/// The errors, spp and render seconds of a finished run.
-fn judge(output: &Path, reference: &Image, a: &CompareArgs) -> Result<(ImageErrors, u64, f64)> {
+/// Reads back a finished run: its image, its errors against the reference(s), spp and render seconds.
+fn judge(
+    output: &Path,
+    reference: &Image,
+    second_reference: Option<&Image>,
+    a: &CompareArgs,
+) -> Result<Judgement> {
     let image = Image::read_exr(output)?;
     let errors =
         image_errors(&image, reference, a.epsilon, a.outliers).map_err(anyhow::Error::msg)?;
+    let rel_mse_two_references = second_reference
+        .map(|b| two_reference_rel_mse(&image, reference, b, a.epsilon, a.outliers))
+        .transpose()
+        .map_err(anyhow::Error::msg)?;
     let sidecar: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(output.with_extension("json"))?)?;
-    Ok((
+    Ok(Judgement {
+        image,
         errors,
-        sidecar["spp"].as_u64().unwrap_or(0),
-        sidecar["render_s"].as_f64().unwrap_or(0.0),
-    ))
+        rel_mse_two_references,
+        spp: sidecar["spp"].as_u64().unwrap_or(0),
+        seconds: sidecar["render_s"].as_f64().unwrap_or(0.0),
+    })
 }
 
 /// A false-colour image of the per-pixel relMSE, log scale from 1e-4 (dark) to 10 (bright).

@@ -86,7 +86,7 @@ fn two_noisy_references_recover_the_error_against_a_far_better_one() {
         "--methods",
         "pt",
         "--curve-points",
-        "1",
+        "2",
         "--reference",
         a.to_str().unwrap(),
         "--second-reference",
@@ -110,5 +110,19 @@ fn two_noisy_references_recover_the_error_against_a_far_better_one() {
         .parse()
         .unwrap();
     assert!(value.is_finite() && value > 0.0, "{csv}");
+    // The convergence curve's smaller run is judged against the truth too.
+    let curve = std::fs::read_to_string(out.join("convergence.csv")).unwrap();
+    let mut lines = curve.lines();
+    let header: Vec<&str> = lines.next().unwrap().split(',').collect();
+    let column = header
+        .iter()
+        .position(|h| *h == "rel_mse_two_references")
+        .expect("two-reference column in convergence.csv");
+    let values: Vec<f64> = lines
+        .map(|l| l.split(',').nth(column).unwrap().parse().unwrap())
+        .collect();
+    assert_eq!(values.len(), 2, "{curve}");
+    // Half the samples: about twice the error against the truth.
+    assert!(values[0] > 1.3 * values[1], "{curve}");
     let _ = std::fs::remove_dir_all(&d);
 }
