@@ -152,8 +152,9 @@ pub struct UpdateStats {
 
 /// What a distribution computes once per shading point and reuses for every [`GuidingDistribution::sample_at`]
 /// and [`GuidingDistribution::pdf_at`] call there (the GMM's per-component hemisphere masses, needed by
-/// next-event estimation, sampling and the BSDF direction's pdf alike). Keep one per path and reuse it
-/// across vertices so its buffer is allocated once.
+/// next-event estimation, sampling and the BSDF direction's pdf alike). Keep one per thread and reuse it
+/// across vertices and paths so its buffers are allocated once: `sample_at` and `pdf_at` may read only what
+/// the last `prepare` wrote (the buffers still hold an earlier vertex's values, maybe another guide's).
 #[derive(Clone, Debug, Default)]
 pub struct GuideVertex {
     /// The shading point.
