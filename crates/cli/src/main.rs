@@ -3,6 +3,7 @@
 mod bench;
 mod compare_cmd;
 mod convergence_plot;
+mod fireflies_cmd;
 mod flip;
 mod merge_cmd;
 mod metrics_cmd;
@@ -35,6 +36,8 @@ enum Command {
     Reference(reference_cmd::ReferenceArgs),
     /// Combine independent renders of one scene, weighted by their sample counts.
     Merge(merge_cmd::MergeArgs),
+    /// List the samples of a render with a trained guide that carry its error, with their paths.
+    Fireflies(fireflies_cmd::FirefliesArgs),
 }
 
 fn main() -> ExitCode {
@@ -46,6 +49,7 @@ fn main() -> ExitCode {
         Command::Compare(a) => compare_cmd::run(a),
         Command::Reference(a) => reference_cmd::run(a),
         Command::Merge(a) => merge_cmd::run(a),
+        Command::Fireflies(a) => fireflies_cmd::run(a),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

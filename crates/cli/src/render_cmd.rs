@@ -145,7 +145,7 @@ pub fn parse_sampler(s: &str) -> Result<SamplerKind> {
 
 /// The guided render a run asks for: `--guiding` on the command line, else a guided scene integrator;
 /// `None` for a plain render.
-fn guided_spec(scene: &IntegratorSpec, g: &GuidingArgs) -> Result<Option<GuidedSpec>> {
+pub(crate) fn guided_spec(scene: &IntegratorSpec, g: &GuidingArgs) -> Result<Option<GuidedSpec>> {
     let mut spec = match (scene, &g.guiding) {
         (IntegratorSpec::Guided(s), _) => (**s).clone(),
         (IntegratorSpec::Path(p), Some(_)) => GuidedSpec {

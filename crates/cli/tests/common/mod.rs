@@ -1,4 +1,5 @@
 //! Helpers shared by the command-line tool's integration tests.
+#![allow(dead_code)] // each test binary uses some of these
 
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};

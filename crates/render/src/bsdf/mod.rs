@@ -114,6 +114,25 @@ pub(crate) fn texture_mean(t: &Texture) -> f32 {
 }
 
 impl Bsdf {
+    /// The Mitsuba plugin name of this BSDF (for diagnostics).
+    pub fn plugin_name(&self) -> &'static str {
+        match self {
+            Bsdf::Diffuse(_) => "diffuse",
+            Bsdf::Conductor(_) => "conductor",
+            Bsdf::RoughConductor(_) => "roughconductor",
+            Bsdf::Dielectric(_) => "dielectric",
+            Bsdf::RoughDielectric(_) => "roughdielectric",
+            Bsdf::ThinDielectric(_) => "thindielectric",
+            Bsdf::Plastic(_) => "plastic",
+            Bsdf::RoughPlastic(_) => "roughplastic",
+            Bsdf::TwoSided(_) => "twosided",
+            Bsdf::NormalMap(_) => "normalmap",
+            Bsdf::Blend(_) => "blendbsdf",
+            Bsdf::Mask(_) => "mask",
+            Bsdf::DiffuseTransmitter(_) => "difftrans",
+        }
+    }
+
     /// f(wi, wo)·|cos θo| of the non-delta components.
     #[inline]
     pub fn eval(&self, ctx: &BsdfContext, wi: Vec3, wo: Vec3) -> Rgb {

@@ -3,6 +3,7 @@
 //! next-event estimation is MIS-weighted against the mixture pdf, and the path's segments are recorded as
 //! training data for the next iteration.
 
+use super::path_trace::{LightEvent, PathObserver, PathTrace, Strategy, TracedLight, TracedVertex};
 use super::{
     next_event_estimate, power_heuristic, resolve_pass_through, FirstHitAovs, Integrator,
     PassThroughRun, PathSettings,
@@ -194,10 +195,40 @@ impl Integrator for GuidedPathIntegrator<'_> {
     fn li(
         &self,
         scene: &Scene,
+        ray: Ray,
+        sampler: &mut Sampler,
+        aovs: &mut FirstHitAovs,
+        training: &mut Vec<TrainingSegment>,
+    ) -> Rgb {
+        self.trace_path(scene, ray, sampler, aovs, training, &mut ())
+    }
+}
+
+impl GuidedPathIntegrator<'_> {
+    /// [`Integrator::li`] that also records the path's decisions and light into `trace` (cleared
+    /// first), for finding where fireflies come from: the same estimate, sample for sample.
+    pub fn li_traced(
+        &self,
+        scene: &Scene,
+        ray: Ray,
+        sampler: &mut Sampler,
+        trace: &mut PathTrace,
+    ) -> Rgb {
+        trace.vertices.clear();
+        trace.lights.clear();
+        let mut aovs = FirstHitAovs::default();
+        let mut training = Vec::new();
+        self.trace_path(scene, ray, sampler, &mut aovs, &mut training, trace)
+    }
+
+    fn trace_path<O: PathObserver>(
+        &self,
+        scene: &Scene,
         mut ray: Ray,
         sampler: &mut Sampler,
         aovs: &mut FirstHitAovs,
         training: &mut Vec<TrainingSegment>,
+        observer: &mut O,
     ) -> Rgb {
         let s = &self.settings.path;
         if s.max_depth == 0 {
@@ -241,6 +272,11 @@ impl Integrator for GuidedPathIntegrator<'_> {
                         let emitted = throughput * le * mis;
                         result += emitted;
                         note_emission(&mut pending, emitted, nee_pdf);
+                        observer.light(TracedLight {
+                            depth,
+                            event: LightEvent::Environment,
+                            value: emitted.element_sum() / 3.0,
+                        });
                     }
                 }
                 if let Some(from) = glass_from.take() {
@@ -267,6 +303,11 @@ impl Integrator for GuidedPathIntegrator<'_> {
                     let emitted = throughput * le * mis;
                     result += emitted;
                     note_emission(&mut pending, emitted, nee_pdf);
+                    observer.light(TracedLight {
+                        depth,
+                        event: LightEvent::EmitterHit,
+                        value: emitted.element_sum() / 3.0,
+                    });
                 }
             }
             let ctx = BsdfContext { uv: si.uv };
@@ -327,7 +368,7 @@ impl Integrator for GuidedPathIntegrator<'_> {
             }
 
             // Next-event estimation, MIS-weighted against the full sampling mixture.
-            result += throughput
+            let direct = throughput
                 * next_event_estimate(scene, &si, bsdf, &ctx, wi, sampler, |wo, wo_world| {
                     let p_bsdf = bsdf.pdf(&ctx, wi, wo);
                     match guide {
@@ -335,6 +376,14 @@ impl Integrator for GuidedPathIntegrator<'_> {
                         None => p_bsdf,
                     }
                 });
+            result += direct;
+            if direct != Rgb::ZERO {
+                observer.light(TracedLight {
+                    depth,
+                    event: LightEvent::NextEvent,
+                    value: direct.element_sum() / 3.0,
+                });
+            }
 
             // Direction sampling: BSDF, or the one-sample BSDF/guide mixture.
             let Some(step) = sample_direction(bsdf, guide, &vertex, &ctx, &si, wi, sampler) else {
@@ -345,7 +394,7 @@ impl Integrator for GuidedPathIntegrator<'_> {
                     pending[from..].iter_mut().for_each(|p| p.refracted = true);
                 }
             }
-            if self.record && !step.delta {
+            if self.record && !step.delta() {
                 pending.push(PendingSegment {
                     segment: TrainingSegment {
                         origin: si.p,
@@ -369,10 +418,23 @@ impl Integrator for GuidedPathIntegrator<'_> {
                 });
             }
             throughput *= step.weight;
+            observer.vertex(TracedVertex {
+                depth,
+                bsdf: bsdf.plugin_name(),
+                glossy,
+                guide_fraction: guide.map_or(0.0, |g| g.alpha),
+                strategy: step.strategy,
+                bsdf_pdf: step.bsdf_pdf,
+                guide_pdf: step.guide_pdf,
+                pdf: step.pdf,
+                weight: step.weight.max_element(),
+                throughput: throughput.max_element(),
+                survival: 1.0,
+            });
             eta *= step.eta;
             prev_p = si.p;
             prev_pdf = step.pdf;
-            prev_delta = step.delta;
+            prev_delta = step.delta();
             depth += 1;
 
             let tmax = throughput.max_element();
@@ -389,6 +451,7 @@ impl Integrator for GuidedPathIntegrator<'_> {
             };
             if roulette != Roulette::Off && depth >= s.rr_depth {
                 let q = (survival * eta * eta).min(0.95);
+                observer.survival(q);
                 if sampler.next_1d() >= q {
                     break;
                 }
@@ -441,7 +504,13 @@ struct Step {
     /// The guide's own pdf of the direction (0 at unguided vertices).
     guide_pdf: f32,
     eta: f32,
-    delta: bool,
+    strategy: Strategy,
+}
+
+impl Step {
+    fn delta(&self) -> bool {
+        self.strategy == Strategy::Delta
+    }
 }
 
 /// Samples the next direction at a vertex; `None` ends the path.
@@ -468,7 +537,11 @@ fn sample_direction(
             bsdf_pdf: bs.pdf,
             guide_pdf: 0.0,
             eta: bs.eta,
-            delta: bs.delta,
+            strategy: if bs.delta {
+                Strategy::Delta
+            } else {
+                Strategy::Bsdf
+            },
         });
     };
     let alpha = guide.alpha;
@@ -484,7 +557,7 @@ fn sample_direction(
                 bsdf_pdf: bs.pdf,
                 guide_pdf: 0.0,
                 eta: bs.eta,
-                delta: true,
+                strategy: Strategy::Delta,
             });
         }
         let f = bsdf.eval(ctx, wi, bs.wo);
@@ -500,7 +573,7 @@ fn sample_direction(
             bsdf_pdf: p_bsdf,
             guide_pdf,
             eta: bs.eta,
-            delta: false,
+            strategy: Strategy::Bsdf,
         })
     } else {
         // Guide branch: the rescaled selection number is uniform again and drives the guide's choice.
@@ -529,7 +602,7 @@ fn sample_direction(
             bsdf_pdf: p_bsdf,
             guide_pdf: gs.pdf,
             eta,
-            delta: false,
+            strategy: Strategy::Guide,
         })
     }
 }

@@ -2,6 +2,7 @@
 
 mod guided;
 mod path;
+pub mod path_trace;
 
 pub use guided::{GuidedPathIntegrator, GuidedSettings, Roulette, GLOSSY_ROUGHNESS};
 pub use path::{PathIntegrator, PathSettings};

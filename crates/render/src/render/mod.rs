@@ -6,6 +6,7 @@
 
 pub mod combine;
 pub mod cross_check;
+pub mod fireflies;
 pub mod guide_ellipses;
 pub mod guide_view;
 pub mod guided;
@@ -108,6 +109,32 @@ struct TileOutput {
 
 /// Renders samples `[first, first + count)` of every pixel of one tile into fresh blocks; with two films,
 /// even sample indices go to the first and odd ones to the second.
+/// The sampler (after the camera's dimensions), film position and camera ray of sample `index` of
+/// `pixel`, whose random streams are numbered `pixel_index`: what every render of these settings draws.
+pub(crate) fn camera_sample(
+    camera: &Camera,
+    settings: &RenderSettings,
+    pixel: IVec2,
+    pixel_index: u64,
+    index: u32,
+) -> (Sampler, glam::Vec2, crate::ray::Ray) {
+    let mut sampler = Sampler::new(settings.sampler, settings.seed, pixel_index, index);
+    let film_pos = pixel.as_vec2() + sampler.next_2d();
+    let aperture = sampler.next_2d();
+    let ray = camera.generate_ray(film_pos, aperture);
+    (sampler, film_pos, ray)
+}
+
+/// A pool of `threads` workers (0: one per core) and its size.
+pub(crate) fn thread_pool(threads: usize) -> (rayon::ThreadPool, usize) {
+    let threads = if threads == 0 { num_cpus() } else { threads };
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()
+        .expect("thread pool");
+    (pool, threads)
+}
+
 #[allow(clippy::too_many_arguments)]
 fn render_tile(
     scene: &Scene,
@@ -132,10 +159,8 @@ fn render_tile(
             let recorded = segments.len();
             for s in first..first + count {
                 let index = s.wrapping_add(index_offset);
-                let mut sampler = Sampler::new(settings.sampler, settings.seed, pixel_index, index);
-                let film_pos = pixel.as_vec2() + sampler.next_2d();
-                let aperture = sampler.next_2d();
-                let ray = camera.generate_ray(film_pos, aperture);
+                let (mut sampler, film_pos, ray) =
+                    camera_sample(camera, settings, pixel, pixel_index, index);
                 let mut aovs = FirstHitAovs::default();
                 let l = integrator.li(scene, ray, &mut sampler, &mut aovs, &mut segments);
                 let aov = AovSample {
@@ -187,15 +212,7 @@ impl<'a> PassRunner<'a> {
         settings: &RenderSettings,
         halves: bool,
     ) -> Self {
-        let threads = if settings.threads == 0 {
-            num_cpus()
-        } else {
-            settings.threads
-        };
-        let pool = rayon::ThreadPoolBuilder::new()
-            .num_threads(threads)
-            .build()
-            .expect("thread pool");
+        let (pool, threads) = thread_pool(settings.threads);
         let n = if halves { 2 } else { 1 };
         PassRunner {
             scene,

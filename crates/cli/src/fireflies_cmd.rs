@@ -1,0 +1,232 @@
+//! `focal fireflies`: which samples of a render with a trained guide carry its error, and what their
+//! paths did (see `focal_render::render::fireflies`).
+
+use crate::render_cmd::{guided_spec, parse_defines, parse_sampler, GuidingArgs};
+use anyhow::{bail, Context, Result};
+use clap::Args;
+use focal_render::film::Image;
+use focal_render::guide::load_guide;
+use focal_render::integrator::path_trace::{LightEvent, PathTrace, Strategy};
+use focal_render::integrator::GuidedPathIntegrator;
+use focal_render::load::load_scene;
+use focal_render::render::fireflies::{find_fireflies, Firefly};
+use focal_render::render::RenderSettings;
+use focal_render::scene::{BuildOptions, Strictness};
+use std::collections::BTreeMap;
+use std::path::PathBuf;
+
+/// Arguments of `focal fireflies`.
+#[derive(Args, Debug)]
+pub struct FirefliesArgs {
+    /// The scene file.
+    pub scene: PathBuf,
+    /// The reference image (EXR) the samples are scored against.
+    #[arg(long)]
+    pub reference: PathBuf,
+    /// Samples per pixel (the same samples as `render --load-guide` with this --spp and --seed).
+    #[arg(long)]
+    pub spp: u32,
+    /// Random seed.
+    #[arg(long, default_value_t = 0)]
+    pub seed: u64,
+    /// How many of the highest-scoring samples to list.
+    #[arg(long, default_value_t = 20)]
+    pub top: usize,
+    /// ε of relMSE.
+    #[arg(long, default_value_t = focal_render::metrics::DEFAULT_REL_EPSILON)]
+    pub epsilon: f64,
+    /// Also write the report, with every listed sample's whole path, as JSON to this file.
+    #[arg(long, value_name = "PATH")]
+    pub json: Option<PathBuf>,
+    /// Worker threads (default: all cores).
+    #[arg(long, default_value_t = 0)]
+    pub threads: usize,
+    /// Scene parameter override, `name=value` (repeatable).
+    #[arg(short = 'D', value_name = "NAME=VALUE")]
+    pub defines: Vec<String>,
+    /// Replace the scene's integrator (e.g. `path`).
+    #[arg(long)]
+    pub integrator: Option<String>,
+    /// Sample generator (independent or sobol; default: the scene's).
+    #[arg(long)]
+    pub sampler: Option<String>,
+    /// The guide (`--load-guide`, required) and the guided integrator's options.
+    #[command(flatten)]
+    pub guiding: GuidingArgs,
+}
+
+/// Runs `focal fireflies`.
+pub fn run(a: FirefliesArgs) -> Result<()> {
+    let Some(guide_path) = &a.guiding.load_guide else {
+        bail!("give the trained guide with --load-guide (from `focal render --save-guide`)");
+    };
+    if a.spp == 0 {
+        bail!("--spp must be at least 1");
+    }
+    let params = parse_defines(&a.defines)?;
+    let opts = BuildOptions {
+        integrator_override: a.integrator.clone(),
+        strictness: Strictness::Strict,
+    };
+    let loaded = load_scene(&a.scene, &params, &opts)?;
+    let Some(spec) = guided_spec(&loaded.integrator, &a.guiding)? else {
+        bail!("the scene's integrator is not guided: give --guiding METHOD");
+    };
+    let bytes =
+        std::fs::read(guide_path).with_context(|| format!("reading {}", guide_path.display()))?;
+    let guide = load_guide(&bytes).map_err(|e| anyhow::anyhow!("{}: {e}", guide_path.display()))?;
+    let reference = Image::read_exr(&a.reference)
+        .with_context(|| format!("reading {}", a.reference.display()))?;
+    let settings = RenderSettings {
+        spp: a.spp,
+        time_limit: None,
+        seed: a.seed,
+        threads: a.threads,
+        aovs: false,
+        sampler: match &a.sampler {
+            Some(s) => parse_sampler(s)?,
+            None => loaded.sampler.kind,
+        },
+    };
+    let integrator = GuidedPathIntegrator {
+        settings: spec.settings,
+        guide: Some(guide.as_ref()),
+        record: false,
+    };
+    let report = find_fireflies(
+        &loaded.scene,
+        &loaded.camera,
+        &loaded.film,
+        &integrator,
+        &settings,
+        &reference,
+        a.epsilon,
+        a.top,
+    )
+    .map_err(anyhow::Error::msg)?;
+
+    println!(
+        "{} samples ({} spp): relMSE implied by the samples {:.4e}; the {} listed hold {:.1} % of it",
+        report.samples,
+        report.spp,
+        report.implied_rel_mse,
+        report.fireflies.len(),
+        100.0 * report.top_share
+    );
+    println!(
+        "{:>4} {:>11} {:>6} {:>11} {:>10} {:>7}  path (depth bsdf strategy α p_bsdf p_guide weight [1/q]) → light",
+        "rank", "pixel", "sample", "value", "reference", "share%"
+    );
+    let total = report.implied_rel_mse * report.samples as f64 * report.spp as f64;
+    for (i, f) in report.fireflies.iter().enumerate() {
+        println!(
+            "{:>4} {:>11} {:>6} {:>11.4e} {:>10.4e} {:>7.2}  {}",
+            i + 1,
+            format!("{},{}", f.pixel[0], f.pixel[1]),
+            f.sample_index,
+            f.value,
+            f.reference,
+            100.0 * f.score / total.max(f64::MIN_POSITIVE),
+            describe(&f.trace)
+        );
+    }
+    println!("what the listed samples share (counts):");
+    for (what, n) in tally(&report.fireflies) {
+        println!("  {n:>4}  {what}");
+    }
+    if let Some(p) = &a.json {
+        std::fs::write(p, serde_json::to_string_pretty(&report)? + "\n")
+            .with_context(|| format!("writing {}", p.display()))?;
+    }
+    Ok(())
+}
+
+fn strategy_name(s: Strategy) -> &'static str {
+    match s {
+        Strategy::Bsdf => "bsdf",
+        Strategy::Guide => "guide",
+        Strategy::Delta => "delta",
+    }
+}
+
+fn event_name(e: LightEvent) -> &'static str {
+    match e {
+        LightEvent::NextEvent => "next-event",
+        LightEvent::EmitterHit => "emitter hit",
+        LightEvent::Environment => "environment",
+    }
+}
+
+/// A one-line account of a path: its vertices, then the light that added most.
+fn describe(t: &PathTrace) -> String {
+    let mut parts: Vec<String> = t
+        .vertices
+        .iter()
+        .map(|v| {
+            let mut s = format!("{} {} {}", v.depth, v.bsdf, strategy_name(v.strategy));
+            if v.guide_fraction > 0.0 {
+                s += &format!(
+                    " α{:.2} {:.3e} {:.3e}",
+                    v.guide_fraction, v.bsdf_pdf, v.guide_pdf
+                );
+            }
+            s += &format!(" w{:.3}", v.weight);
+            if v.survival < 1.0 {
+                s += &format!(" [{:.2}]", 1.0 / v.survival);
+            }
+            s
+        })
+        .collect();
+    if let Some(l) = t.dominant_light() {
+        parts.push(format!("→ {} after {}", event_name(l.event), l.depth));
+    }
+    parts.join(" | ")
+}
+
+/// Counts, over the listed samples, of how the dominant light was found and how the vertex that chose
+/// the direction to it (for an emitter hit; the vertex itself for next-event estimation) sampled, and of
+/// Russian-roulette boosts above 2 along the path.
+fn tally(fireflies: &[Firefly]) -> BTreeMap<String, usize> {
+    let mut counts = BTreeMap::new();
+    for f in fireflies {
+        let t = &f.trace;
+        let Some(l) = t.dominant_light() else {
+            *counts
+                .entry("no light (value below the reference)".to_string())
+                .or_insert(0) += 1;
+            continue;
+        };
+        let key = match l.event {
+            LightEvent::NextEvent => format!("next-event at depth {}", l.depth),
+            _ => {
+                let last = l
+                    .depth
+                    .checked_sub(1)
+                    .and_then(|d| t.vertices.get(d as usize));
+                match last {
+                    Some(v) => format!(
+                        "{} after depth {}, chosen by {} at {}{}",
+                        event_name(l.event),
+                        l.depth,
+                        strategy_name(v.strategy),
+                        v.bsdf,
+                        if v.guide_fraction > 0.0 {
+                            " (guided vertex)"
+                        } else {
+                            ""
+                        }
+                    ),
+                    None => format!("{} seen directly", event_name(l.event)),
+                }
+            }
+        };
+        *counts.entry(key).or_insert(0) += 1;
+        let boost: f32 = t.vertices.iter().map(|v| 1.0 / v.survival).product();
+        if boost > 2.0 {
+            *counts
+                .entry("Russian roulette boosted the path more than 2×".to_string())
+                .or_insert(0) += 1;
+        }
+    }
+    counts
+}

@@ -1,0 +1,120 @@
+//! A record of one guided path's decisions, for finding where a render's fireflies come from: at every
+//! scattering vertex how the direction was chosen and with which densities, where Russian roulette
+//! boosted the throughput, and which light the path added. The guided integrator fills it through
+//! [`PathObserver`] only when asked ([`crate::integrator::GuidedPathIntegrator::li_traced`]); its
+//! ordinary `li` observes nothing, at no cost.
+
+/// How a vertex chose its outgoing direction.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Strategy {
+    /// The BSDF's smooth lobes (at a guided vertex: the BSDF branch of the one-sample mixture).
+    Bsdf,
+    /// The guide.
+    Guide,
+    /// A delta lobe of the BSDF (never guided).
+    Delta,
+}
+
+/// One scattering vertex of a traced path.
+#[derive(Clone, Copy, Debug, serde::Serialize)]
+pub struct TracedVertex {
+    /// Scattering vertices before this one (0 at the first hit).
+    pub depth: u32,
+    /// The BSDF's Mitsuba plugin name.
+    pub bsdf: &'static str,
+    /// The BSDF counts as glossy (narrow lobes).
+    pub glossy: bool,
+    /// The probability α of sampling the guide here (0 where the vertex was not guided).
+    pub guide_fraction: f32,
+    /// How the direction was chosen.
+    pub strategy: Strategy,
+    /// The BSDF's solid-angle pdf of the chosen direction.
+    pub bsdf_pdf: f32,
+    /// The guide's pdf of the chosen direction (0 where not guided).
+    pub guide_pdf: f32,
+    /// The pdf the direction was sampled with (the mixture's at a guided vertex).
+    pub pdf: f32,
+    /// The largest channel of f·cos/pdf.
+    pub weight: f32,
+    /// The path throughput's largest channel after this vertex (before Russian roulette).
+    pub throughput: f32,
+    /// The Russian roulette survival probability applied after this vertex (1 if none was played).
+    pub survival: f32,
+}
+
+/// How a path added light.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum LightEvent {
+    /// Next-event estimation at a vertex.
+    NextEvent,
+    /// The sampled direction hit an area emitter.
+    EmitterHit,
+    /// The sampled direction escaped to an environment emitter.
+    Environment,
+}
+
+/// Light a traced path added to its estimate.
+#[derive(Clone, Copy, Debug, serde::Serialize)]
+pub struct TracedLight {
+    /// Scattering vertices before the light was found (next-event estimation at vertex d: d; an emitter
+    /// hit after d vertices: d).
+    pub depth: u32,
+    /// How it was found.
+    pub event: LightEvent,
+    /// The mean over channels of what it added (throughput, MIS weight and all).
+    pub value: f32,
+}
+
+/// One path's vertices and light, in order.
+#[derive(Clone, Debug, Default, serde::Serialize)]
+pub struct PathTrace {
+    /// The scattering vertices.
+    pub vertices: Vec<TracedVertex>,
+    /// The light added.
+    pub lights: Vec<TracedLight>,
+}
+
+impl PathTrace {
+    /// The light event that added the most.
+    pub fn dominant_light(&self) -> Option<&TracedLight> {
+        self.lights
+            .iter()
+            .max_by(|a, b| a.value.total_cmp(&b.value))
+    }
+}
+
+/// What the guided integrator reports while it traces a path.
+pub(crate) trait PathObserver {
+    /// The path scattered at a vertex (its survival is set by [`PathObserver::survival`]).
+    fn vertex(&mut self, vertex: TracedVertex);
+    /// Russian roulette kept the path with probability `q` after the last vertex.
+    fn survival(&mut self, q: f32);
+    /// The path added light.
+    fn light(&mut self, light: TracedLight);
+}
+
+/// Observes nothing: the ordinary render.
+impl PathObserver for () {
+    #[inline(always)]
+    fn vertex(&mut self, _: TracedVertex) {}
+    #[inline(always)]
+    fn survival(&mut self, _: f32) {}
+    #[inline(always)]
+    fn light(&mut self, _: TracedLight) {}
+}
+
+impl PathObserver for PathTrace {
+    fn vertex(&mut self, vertex: TracedVertex) {
+        self.vertices.push(vertex);
+    }
+    fn survival(&mut self, q: f32) {
+        if let Some(v) = self.vertices.last_mut() {
+            v.survival = q;
+        }
+    }
+    fn light(&mut self, light: TracedLight) {
+        self.lights.push(light);
+    }
+}
