@@ -541,3 +541,43 @@ fn segments_into_a_glass_ball_refract_and_into_a_pane_do_not() {
         "pane: {pane_bent} of {pane} refracting"
     );
 }
+
+/// The albedo roulette carries its earlier survivals, as Mitsuba's throughput roulette does: after the
+/// first roulette every vertex survives by at least its own albedo (at least the darkest wall's), so the
+/// boosts 1/q do not compound. Dividing by the whole albedo product at every vertex instead gave
+/// survivals of 0.7⁸ ≈ 0.06 by the eighth bounce in the Cornell box, and boosts that multiplied.
+#[test]
+fn albedo_roulette_survivals_do_not_compound() {
+    use focal_render::integrator::path_trace::PathTrace;
+    use focal_render::integrator::GuidedPathIntegrator;
+    use focal_render::sampler::{Sampler, SamplerKind};
+    let scene = load(&reference_scene("cbox"), &[("res", "16")]);
+    let mut guide = guide_for(GuidingMethod::Gmm, &scene);
+    let mut s = guided_settings(16, 3, 0, Combine::InverseVariance);
+    s.fallback = false;
+    render_with(&scene, Some(guide.as_mut()), &s);
+    let integrator = GuidedPathIntegrator {
+        settings: GuidedSettings::default(),
+        guide: Some(guide.as_ref()),
+        record: false,
+    };
+    let (w, h) = (scene.film.crop_size.x, scene.film.crop_size.y);
+    let mut trace = PathTrace::default();
+    let (mut later, mut lowest) = (0usize, 1.0f32);
+    for i in 0..20_000u32 {
+        let pixel = i % (w * h);
+        let mut sampler = Sampler::new(SamplerKind::Independent, 11, pixel as u64, i);
+        let film = glam::Vec2::new((pixel % w) as f32, (pixel / w) as f32) + sampler.next_2d();
+        let aperture = sampler.next_2d();
+        let ray = scene.camera.generate_ray(film, aperture);
+        let l = integrator.li_traced(&scene.scene, ray, &mut sampler, &mut trace);
+        assert!(l.is_finite());
+        for v in trace.vertices.iter().filter(|v| v.survival < 1.0).skip(1) {
+            later += 1;
+            lowest = lowest.min(v.survival);
+        }
+    }
+    assert!(later > 1000, "only {later} roulettes after the first");
+    // The Cornell box's darkest wall (green) reflects 0.378 in its brightest channel.
+    assert!(lowest >= 0.37, "a later roulette survived with {lowest}");
+}
