@@ -450,8 +450,10 @@ fn training_segments_carry_emission_and_pixel_weights() {
     );
     for (_, s) in &emitting {
         assert!(s.emitter_pdf > 0.0, "{s:?}");
-        // c is a difference of the path's running sums, so it carries their f32 rounding.
-        assert!(s.emitted <= s.weight * 1.001, "{s:?}");
+        // c is a difference of the path's running sums, so it carries their f32 rounding: about
+        // 1e-7 of the sums (at most a few units here), which for the faint segments deep in a long
+        // path is more than 0.1 % of c.
+        assert!(s.emitted <= s.weight * 1.001 + 1e-6, "{s:?}");
     }
     assert!(seen
         .iter()
