@@ -117,7 +117,6 @@ pub fn run(a: FirefliesArgs) -> Result<()> {
         "{:>4} {:>11} {:>6} {:>11} {:>10} {:>7}  path (depth bsdf strategy α p_bsdf p_guide weight [1/q]) → light",
         "rank", "pixel", "sample", "value", "reference", "share%"
     );
-    let total = report.implied_rel_mse * report.samples as f64 * report.spp as f64;
     for (i, f) in report.fireflies.iter().enumerate() {
         println!(
             "{:>4} {:>11} {:>6} {:>11.4e} {:>10.4e} {:>7.2}  {}",
@@ -126,7 +125,7 @@ pub fn run(a: FirefliesArgs) -> Result<()> {
             f.sample_index,
             f.value,
             f.reference,
-            100.0 * f.score / total.max(f64::MIN_POSITIVE),
+            100.0 * f.score / report.total_score.max(f64::MIN_POSITIVE),
             describe(&f.trace)
         );
     }

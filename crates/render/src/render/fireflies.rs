@@ -43,7 +43,9 @@ pub struct FireflyReport {
     pub samples: u64,
     /// Samples per pixel.
     pub spp: u32,
-    /// The sum of all samples' scores over pixels × spp²: the relMSE the scores imply.
+    /// The sum of all samples' scores.
+    pub total_score: f64,
+    /// `total_score` over pixels × spp²: the relMSE the scores imply.
     pub implied_rel_mse: f64,
     /// The share of all samples' scores held by `fireflies`.
     pub top_share: f64,
@@ -126,6 +128,7 @@ pub fn find_fireflies(
     Ok(FireflyReport {
         samples: (pixels * spp) as u64,
         spp: settings.spp,
+        total_score: total,
         implied_rel_mse: total / (pixels * spp * spp),
         top_share: if total > 0.0 { top / total } else { 0.0 },
         fireflies,

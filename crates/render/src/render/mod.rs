@@ -107,8 +107,6 @@ struct TileOutput {
     segments: Vec<TrainingSegment>,
 }
 
-/// Renders samples `[first, first + count)` of every pixel of one tile into fresh blocks; with two films,
-/// even sample indices go to the first and odd ones to the second.
 /// The sampler (after the camera's dimensions), film position and camera ray of sample `index` of
 /// `pixel`, whose random streams are numbered `pixel_index`: what every render of these settings draws.
 pub(crate) fn camera_sample(
@@ -135,6 +133,8 @@ pub(crate) fn thread_pool(threads: usize) -> (rayon::ThreadPool, usize) {
     (pool, threads)
 }
 
+/// Renders samples `[first, first + count)` of every pixel of one tile into fresh blocks; with two films,
+/// even sample indices go to the first and odd ones to the second.
 #[allow(clippy::too_many_arguments)]
 fn render_tile(
     scene: &Scene,
