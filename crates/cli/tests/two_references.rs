@@ -35,6 +35,21 @@ fn render(dir: &Path, name: &str, spp: u32, seed: u32) -> PathBuf {
     out
 }
 
+/// A CSV file's text and the values of its `rel_mse_two_references` column, row by row.
+fn two_reference_column(path: &Path) -> (String, Vec<f64>) {
+    let csv = std::fs::read_to_string(path).unwrap();
+    let mut lines = csv.lines();
+    let header: Vec<&str> = lines.next().unwrap().split(',').collect();
+    let column = header
+        .iter()
+        .position(|h| *h == "rel_mse_two_references")
+        .unwrap_or_else(|| panic!("no two-reference column in {}", path.display()));
+    let values = lines
+        .map(|l| l.split(',').nth(column).unwrap().parse().unwrap())
+        .collect();
+    (csv, values)
+}
+
 fn metrics(image: &Path, reference: &Path, second: Option<&Path>) -> serde_json::Value {
     let mut args = vec![
         "metrics",
@@ -94,33 +109,11 @@ fn two_noisy_references_recover_the_error_against_a_far_better_one() {
         "--out",
         out.to_str().unwrap(),
     ]);
-    let csv = std::fs::read_to_string(out.join("metrics.csv")).unwrap();
-    let mut lines = csv.lines();
-    let header: Vec<&str> = lines.next().unwrap().split(',').collect();
-    let column = header
-        .iter()
-        .position(|h| *h == "rel_mse_two_references")
-        .expect("two-reference column");
-    let value: f64 = lines
-        .next()
-        .unwrap()
-        .split(',')
-        .nth(column)
-        .unwrap()
-        .parse()
-        .unwrap();
+    let (csv, values) = two_reference_column(&out.join("metrics.csv"));
+    let value = values[0];
     assert!(value.is_finite() && value > 0.0, "{csv}");
     // The convergence curve's smaller run is judged against the truth too.
-    let curve = std::fs::read_to_string(out.join("convergence.csv")).unwrap();
-    let mut lines = curve.lines();
-    let header: Vec<&str> = lines.next().unwrap().split(',').collect();
-    let column = header
-        .iter()
-        .position(|h| *h == "rel_mse_two_references")
-        .expect("two-reference column in convergence.csv");
-    let values: Vec<f64> = lines
-        .map(|l| l.split(',').nth(column).unwrap().parse().unwrap())
-        .collect();
+    let (curve, values) = two_reference_column(&out.join("convergence.csv"));
     assert_eq!(values.len(), 2, "{curve}");
     // Half the samples: about twice the error against the truth.
     assert!(values[0] > 1.3 * values[1], "{curve}");

@@ -86,10 +86,9 @@ pub fn find_fireflies(
                     let r = reference.rgb[(y * w + x) as usize];
                     let r = (r[0] as f64 + r[1] as f64 + r[2] as f64) / 3.0;
                     let pixel = spec.crop_offset.as_ivec2() + IVec2::new(x as i32, y as i32);
-                    let pixel_index = pixel.y as u64 * w as u64 + pixel.x as u64;
                     for index in 0..settings.spp {
                         let (mut sampler, _, ray) =
-                            camera_sample(camera, settings, pixel, pixel_index, index);
+                            camera_sample(camera, settings, pixel, w as u64, index);
                         let l = integrator.li_traced(scene, ray, &mut sampler, &mut trace);
                         let l = if l.is_finite() { l } else { Default::default() };
                         let value = l.element_sum() as f64 / 3.0;

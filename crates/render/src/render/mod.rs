@@ -108,14 +108,16 @@ struct TileOutput {
 }
 
 /// The sampler (after the camera's dimensions), film position and camera ray of sample `index` of
-/// `pixel`, whose random streams are numbered `pixel_index`: what every render of these settings draws.
+/// `pixel` on a film window `width` pixels wide: what every render of these settings draws (a pixel's
+/// random streams are numbered y·width + x).
 pub(crate) fn camera_sample(
     camera: &Camera,
     settings: &RenderSettings,
     pixel: IVec2,
-    pixel_index: u64,
+    width: u64,
     index: u32,
 ) -> (Sampler, glam::Vec2, crate::ray::Ray) {
+    let pixel_index = pixel.y as u64 * width + pixel.x as u64;
     let mut sampler = Sampler::new(settings.sampler, settings.seed, pixel_index, index);
     let film_pos = pixel.as_vec2() + sampler.next_2d();
     let aperture = sampler.next_2d();
@@ -155,12 +157,11 @@ fn render_tile(
     for py in 0..size.y as i32 {
         for px in 0..size.x as i32 {
             let pixel = offset + IVec2::new(px, py);
-            let pixel_index = pixel.y as u64 * width + pixel.x as u64;
             let recorded = segments.len();
             for s in first..first + count {
                 let index = s.wrapping_add(index_offset);
                 let (mut sampler, film_pos, ray) =
-                    camera_sample(camera, settings, pixel, pixel_index, index);
+                    camera_sample(camera, settings, pixel, width, index);
                 let mut aovs = FirstHitAovs::default();
                 let l = integrator.li(scene, ray, &mut sampler, &mut aovs, &mut segments);
                 let aov = AovSample {
