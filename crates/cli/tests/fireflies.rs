@@ -4,6 +4,7 @@
 mod common;
 
 use common::focal;
+use focal_render::film::Image;
 use std::path::Path;
 
 #[test]
@@ -86,5 +87,43 @@ fn fireflies_are_ranked_complete_and_deterministic() {
             assert_eq!(v["depth"].as_u64().unwrap(), i as u64, "{f}");
         }
     }
+
+    // A reference pixel holding NaN reads as 0, as relMSE reads it: every score stays finite and the
+    // report is the one a zero there gives, instead of a NaN score sorting first.
+    let poisoned = |value: f32, name: &str| {
+        let mut image = Image::read_exr(&reference).unwrap();
+        image.rgb[5 * image.width as usize + 7] = [value, 0.0, value];
+        let path = d.join(name);
+        image.write_exr(&path).unwrap();
+        let json = d.join(format!("{name}.json"));
+        focal(&[
+            "fireflies",
+            scene,
+            "-D",
+            "res=24",
+            "--guiding",
+            "gmm",
+            "--load-guide",
+            guide.to_str().unwrap(),
+            "--reference",
+            path.to_str().unwrap(),
+            "--spp",
+            "4",
+            "--seed",
+            "7",
+            "--top",
+            "8",
+            "--json",
+            json.to_str().unwrap(),
+        ]);
+        std::fs::read_to_string(json).unwrap()
+    };
+    let with_nan = poisoned(f32::NAN, "nan.exr");
+    let report: serde_json::Value = serde_json::from_str(&with_nan).unwrap();
+    let total = report["total_score"].as_f64().unwrap();
+    assert!(total.is_finite(), "{total}");
+    let first = report["fireflies"][0]["score"].as_f64().unwrap();
+    assert!(first.is_finite(), "{first}");
+    assert_eq!(with_nan, poisoned(0.0, "zero.exr"));
     let _ = std::fs::remove_dir_all(&d);
 }

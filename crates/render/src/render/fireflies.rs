@@ -15,6 +15,7 @@ use crate::camera::Camera;
 use crate::film::{FilmSpec, Image};
 use crate::integrator::path_trace::PathTrace;
 use crate::integrator::GuidedPathIntegrator;
+use crate::metrics::finite;
 use crate::scene::Scene;
 use glam::IVec2;
 use rayon::prelude::*;
@@ -84,7 +85,9 @@ pub fn find_fireflies(
                 let mut trace = PathTrace::default();
                 for x in 0..w {
                     let r = reference.rgb[(y * w + x) as usize];
-                    let r = (r[0] as f64 + r[1] as f64 + r[2] as f64) / 3.0;
+                    // As relMSE reads it: a non-finite reference value counts as 0, so it
+                    // cannot give a NaN score that would sort first.
+                    let r = (finite(r[0]) + finite(r[1]) + finite(r[2])) / 3.0;
                     let pixel = spec.crop_offset.as_ivec2() + IVec2::new(x as i32, y as i32);
                     for index in 0..settings.spp {
                         let (mut sampler, _, ray) =
