@@ -9,6 +9,12 @@ use obvhs::cwbvh::{builder::build_cwbvh, CwBvh};
 use obvhs::{Boundable, BvhBuildParams};
 use std::time::Duration;
 
+/// How far behind its origin a ray starts for the BVH traversal. `obvhs`' node test (0.4) culls every
+/// box the ray leaves within 1e-4 of its origin, ignoring the ray's own least distance: a path vertex
+/// nearer than that to another surface (a room's corner, a gap) saw through it, and on the camera
+/// obscura such leaks to the bright sky were the brightest samples of every guided render.
+const TRAVERSAL_SHIFT: f32 = 2e-4;
+
 /// Marks [`TriPrim::tri`] as an index into [`BvhAccel::analytic`] instead of a triangle index.
 const ANALYTIC: u32 = 1 << 31;
 
@@ -158,8 +164,18 @@ impl BvhAccel {
         }
     }
 
+    /// The ray `obvhs` traverses: started [`TRAVERSAL_SHIFT`] behind the real origin (its parameters
+    /// are the real ones plus the shift), so that the node test's least entry distance lies behind the
+    /// real origin and no surface in front of it is culled. A direction component of −0 becomes +0:
+    /// `obvhs` takes its octant from the sign test d < 0 but its reciprocal from the sign bit, and
+    /// with −0 the two disagree and the ray misses everything (`-Vec3::Y` found no floor).
     fn to_bvh_ray(ray: &Ray) -> obvhs::ray::Ray {
-        obvhs::ray::Ray::new(Vec3A::from(ray.o), Vec3A::from(ray.d), 0.0, ray.t_max)
+        obvhs::ray::Ray::new(
+            Vec3A::from(ray.o - ray.d * TRAVERSAL_SHIFT),
+            Vec3A::from(ray.d) + Vec3A::ZERO,
+            0.0,
+            ray.t_max + TRAVERSAL_SHIFT,
+        )
     }
 }
 
@@ -169,15 +185,17 @@ impl Accel for BvhAccel {
             return None;
         }
         let mut hit = obvhs::ray::RayHit::none();
-        let mut best: Option<(usize, Vec2)> = None;
+        let mut best: Option<(usize, Vec2, f32)> = None;
         let (o, d) = (ray.o, ray.d);
+        // Primitives are tested from the real origin; the traversal works in shifted parameters.
         let found = self
             .bvh
             .ray_traverse(Self::to_bvh_ray(ray), &mut hit, |r, id| {
-                match self.intersect_prim(&self.prims[id], o, d, r.tmax) {
+                let t_max = (r.tmax - TRAVERSAL_SHIFT).min(ray.t_max);
+                match self.intersect_prim(&self.prims[id], o, d, t_max) {
                     Some((t, b)) => {
-                        best = Some((id, b));
-                        t
+                        best = Some((id, b, t));
+                        t + TRAVERSAL_SHIFT
                     }
                     None => f32::INFINITY,
                 }
@@ -185,12 +203,12 @@ impl Accel for BvhAccel {
         if !found {
             return None;
         }
-        let (id, bary) = best?;
+        let (id, bary, t) = best?;
         debug_assert_eq!(id as u32, hit.primitive_id);
         let p = &self.prims[id];
         let (shape, prim) = (p.shape, if p.tri & ANALYTIC != 0 { 0 } else { p.tri });
         Some(PrimHit {
-            t: hit.t,
+            t,
             shape,
             prim,
             bary,
@@ -203,8 +221,9 @@ impl Accel for BvhAccel {
         }
         let (o, d) = (ray.o, ray.d);
         !self.bvh.ray_traverse_miss(Self::to_bvh_ray(ray), |r, id| {
-            self.intersect_prim(&self.prims[id], o, d, r.tmax)
-                .map_or(f32::INFINITY, |(t, _)| t)
+            let t_max = (r.tmax - TRAVERSAL_SHIFT).min(ray.t_max);
+            self.intersect_prim(&self.prims[id], o, d, t_max)
+                .map_or(f32::INFINITY, |(t, _)| t + TRAVERSAL_SHIFT)
         })
     }
 }
