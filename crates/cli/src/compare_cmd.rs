@@ -635,6 +635,7 @@ fn run_args(
             guide_fraction: None,
             rr: None,
             no_escaped: false,
+            no_split: false,
             no_fallback: false,
             octree_threshold: None,
             gmm_k_max: None,

@@ -156,10 +156,12 @@ fn event_name(e: LightEvent) -> &'static str {
     }
 }
 
-/// A one-line account of a path: its vertices, then the light that added most.
+/// A one-line account of a path: the vertices of the copy that added most light, from the camera on
+/// (see [`PathTrace::lineage`]), then that light.
 fn describe(t: &PathTrace) -> String {
+    let light = t.dominant_light();
     let mut parts: Vec<String> = t
-        .vertices
+        .lineage(light.map_or(0, |l| l.branch))
         .iter()
         .map(|v| {
             let mut s = format!("{} {} {}", v.depth, v.bsdf, strategy_name(v.strategy));
@@ -173,18 +175,24 @@ fn describe(t: &PathTrace) -> String {
             if v.survival < 1.0 {
                 s += &format!(" [{:.2}]", 1.0 / v.survival);
             }
+            if v.split > 1.0 {
+                s += &format!(" split×{:.2}", v.split);
+            }
             s
         })
         .collect();
-    if let Some(l) = t.dominant_light() {
+    if let Some(l) = light {
         parts.push(format!("→ {} after {}", event_name(l.event), l.depth));
+    }
+    if t.branches > 0 {
+        parts.push(format!("({} split-off copies)", t.branches));
     }
     parts.join(" | ")
 }
 
 /// Counts, over the listed samples, of how the dominant light was found and how the vertex that chose
 /// the direction to it (for an emitter hit; the vertex itself for next-event estimation) sampled, and of
-/// Russian-roulette boosts above 2 along the path.
+/// Russian-roulette boosts above 2 along the path (the copy's lineage, where the path was split).
 fn tally(fireflies: &[Firefly]) -> BTreeMap<String, usize> {
     let mut counts = BTreeMap::new();
     for f in fireflies {
@@ -195,13 +203,11 @@ fn tally(fireflies: &[Firefly]) -> BTreeMap<String, usize> {
                 .or_insert(0) += 1;
             continue;
         };
+        let lineage = t.lineage(l.branch);
         let key = match l.event {
             LightEvent::NextEvent => format!("next-event at depth {}", l.depth),
             _ => {
-                let last = l
-                    .depth
-                    .checked_sub(1)
-                    .and_then(|d| t.vertices.get(d as usize));
+                let last = l.depth.checked_sub(1).and_then(|d| lineage.get(d as usize));
                 match last {
                     Some(v) => format!(
                         "{} after depth {}, chosen by {} at {}{}",
@@ -220,7 +226,7 @@ fn tally(fireflies: &[Firefly]) -> BTreeMap<String, usize> {
             }
         };
         *counts.entry(key).or_insert(0) += 1;
-        let boost: f32 = t.vertices.iter().map(|v| 1.0 / v.survival).product();
+        let boost: f32 = lineage.iter().map(|v| 1.0 / v.survival).product();
         if boost > 2.0 {
             *counts
                 .entry("Russian roulette boosted the path more than 2×".to_string())

@@ -92,6 +92,10 @@ pub struct GuidingArgs {
     /// Do not train on segments that escaped the scene (Rath et al. drop them).
     #[arg(long)]
     pub no_escaped: bool,
+    /// Do not split guided paths whose throughput the sampling mixture inflated beyond the product of
+    /// the BSDF albedos (by default such paths are split in renders that do not train).
+    #[arg(long)]
+    pub no_split: bool,
     /// Never give up guiding. By default a time-budget render compares, after every guided training
     /// iteration, the guided images so far with the unguided first iteration's; where guiding's relative
     /// error times its render time is more than 0.3 times the path tracer's at the first check, more
@@ -174,6 +178,9 @@ pub(crate) fn guided_spec(scene: &IntegratorSpec, g: &GuidingArgs) -> Result<Opt
     }
     if g.no_escaped {
         spec.settings.train_escaped = false;
+    }
+    if g.no_split {
+        spec.settings.split = false;
     }
     if let Some(f) = g.guide_fraction {
         if !(0.0..1.0).contains(&f) {

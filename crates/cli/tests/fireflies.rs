@@ -82,9 +82,18 @@ fn fireflies_are_ranked_complete_and_deterministic() {
             (lights - value).abs() <= 1e-4 * value.abs().max(1e-6),
             "lights {lights} against the sample's value {value}: {f}"
         );
-        // Vertices are recorded once each, in order.
-        for (i, v) in trace["vertices"].as_array().unwrap().iter().enumerate() {
+        // Vertices are recorded once each, in order: the camera path's from depth 0, each split-off
+        // copy's at consecutive depths.
+        let vertices = trace["vertices"].as_array().unwrap();
+        let camera_path = vertices.iter().filter(|v| v["branch"].as_u64() == Some(0));
+        for (i, v) in camera_path.enumerate() {
             assert_eq!(v["depth"].as_u64().unwrap(), i as u64, "{f}");
+        }
+        for w in vertices.windows(2) {
+            if w[0]["branch"] == w[1]["branch"] {
+                let d = |v: &serde_json::Value| v["depth"].as_u64().unwrap();
+                assert_eq!(d(&w[1]), d(&w[0]) + 1, "{f}");
+            }
         }
     }
 

@@ -86,6 +86,16 @@ pub struct GuidedSettings {
     /// Restrict guide sampling to the shading hemisphere at opaque (non-transmissive) BSDFs, if the
     /// guide supports it (the GMM's truncated sampling); the octree ignores the hint.
     pub hemisphere_hint: bool,
+    /// Split a path whose throughput the one-sample mixture has inflated beyond twice the product of
+    /// the BSDF albedos (with the roulette's survivals, as `Roulette::Albedo` keeps it) into copies
+    /// carrying at most twice it each (at most four per vertex and 64 per camera sample), in renders
+    /// that record no training segments; only with albedo roulette. Where the guide does not cover the
+    /// directions the BSDF samples, every BSDF-branch vertex multiplies the weight by up to 1/(1 − α)
+    /// (4 at α = 0.75) at probability 1 − α, so the second moment of a diffuse chain grows by that
+    /// factor per vertex: the brightest samples of the camera obscura, the lens focus and the door gap
+    /// were such chains of 5–10 vertices. Splitting averages their continuations instead (a weight
+    /// window as Vorba and Křivánek's, with the albedo product standing in for the learned adjoint).
+    pub split: bool,
 }
 
 impl Default for GuidedSettings {
@@ -97,6 +107,7 @@ impl Default for GuidedSettings {
             guide_fraction: 0.5,
             learned_selection: true,
             hemisphere_hint: true,
+            split: true,
         }
     }
 }
@@ -120,7 +131,29 @@ pub struct GuidedPathIntegrator<'g> {
 struct PathScratch {
     pending: Vec<PendingSegment>,
     vertex: GuideVertex,
+    branches: Vec<Branch>,
 }
+
+/// A split-off copy of a path, waiting to be continued from its next ray.
+#[derive(Clone, Copy)]
+struct Branch {
+    ray: Ray,
+    throughput: Rgb,
+    eta: f32,
+    albedo: f32,
+    depth: u32,
+    prev_p: glam::Vec3,
+    prev_pdf: f32,
+    prev_delta: bool,
+}
+
+/// A path is split where its throughput exceeds this many times the albedo product, into copies that
+/// each carry at most this many times it (see [`GuidedSettings::split`]).
+const SPLIT_AT: f32 = 2.0;
+/// The most copies one split makes, in expectation.
+const MAX_SPLIT: f32 = 4.0;
+/// The most split-off copies one camera sample may make in all.
+const MAX_BRANCHES: usize = 64;
 
 thread_local! {
     static SCRATCH: Cell<PathScratch> = Cell::new(PathScratch::default());
@@ -217,6 +250,7 @@ impl GuidedPathIntegrator<'_> {
     ) -> Rgb {
         trace.vertices.clear();
         trace.lights.clear();
+        trace.branches = 0;
         let mut aovs = FirstHitAovs::default();
         let mut training = Vec::new();
         self.trace_path(scene, ray, sampler, &mut aovs, &mut training, trace)
@@ -247,8 +281,12 @@ impl GuidedPathIntegrator<'_> {
         let PathScratch {
             mut pending,
             mut vertex,
+            mut branches,
         } = SCRATCH.with(Cell::take);
         pending.clear();
+        branches.clear();
+        let split = self.settings.split && !self.record;
+        let mut made = 0usize;
         let mut run = PassThroughRun::default();
         // The first pending segment that may still be inside a run of glass vertices.
         let mut glass_from: Option<usize> = None;
@@ -257,17 +295,50 @@ impl GuidedPathIntegrator<'_> {
             (r, _) => r,
         };
 
-        loop {
-            let si = scene.intersect(&ray);
-            let visible = !(s.hide_emitters && depth == 0);
-            let Some(si) = si else {
-                if let Some(env) = scene.environment {
-                    if visible {
-                        let le = scene.emitters[env as usize].eval_environment(ray.d);
+        'paths: loop {
+            loop {
+                let si = scene.intersect(&ray);
+                let visible = !(s.hide_emitters && depth == 0);
+                let Some(si) = si else {
+                    if let Some(env) = scene.environment {
+                        if visible {
+                            let le = scene.emitters[env as usize].eval_environment(ray.d);
+                            let (mis, nee_pdf) = if prev_delta {
+                                (1.0, 0.0)
+                            } else {
+                                let nee_pdf = scene.pdf_emitter_direction_env(ray.d);
+                                (power_heuristic(prev_pdf, nee_pdf), nee_pdf)
+                            };
+                            let emitted = throughput * le * mis;
+                            result += emitted;
+                            note_emission(&mut pending, emitted, nee_pdf);
+                            observer.light(TracedLight {
+                                depth,
+                                event: LightEvent::Environment,
+                                value: emitted.element_sum() / 3.0,
+                                branch: 0,
+                            });
+                        }
+                    }
+                    if let Some(from) = glass_from.take() {
+                        leave_glass(&mut pending, from, ray.d);
+                    }
+                    if self.settings.train_escaped {
+                        if let Some(last) = pending.last_mut() {
+                            if last.segment.distance < 0.0 {
+                                last.segment.distance = f32::INFINITY;
+                            }
+                        }
+                    }
+                    break;
+                };
+                if let Some(e) = scene.shapes[si.shape as usize].emitter {
+                    let le = scene.emitters[e as usize].eval_area(si.to_local(-ray.d).z);
+                    if visible && le != Rgb::ZERO {
                         let (mis, nee_pdf) = if prev_delta {
                             (1.0, 0.0)
                         } else {
-                            let nee_pdf = scene.pdf_emitter_direction_env(ray.d);
+                            let nee_pdf = scene.pdf_emitter_direction_area(prev_p, &si);
                             (power_heuristic(prev_pdf, nee_pdf), nee_pdf)
                         };
                         let emitted = throughput * le * mis;
@@ -275,196 +346,210 @@ impl GuidedPathIntegrator<'_> {
                         note_emission(&mut pending, emitted, nee_pdf);
                         observer.light(TracedLight {
                             depth,
-                            event: LightEvent::Environment,
+                            event: LightEvent::EmitterHit,
                             value: emitted.element_sum() / 3.0,
+                            branch: 0,
                         });
                     }
                 }
-                if let Some(from) = glass_from.take() {
-                    leave_glass(&mut pending, from, ray.d);
+                let ctx = BsdfContext { uv: si.uv };
+                // A pass-through is no vertex: no guiding, no training vertex, no depth; the MIS state of
+                // the last vertex stays.
+                let Some(bsdf) = resolve_pass_through(
+                    &scene.bsdfs[scene.shapes[si.shape as usize].bsdf as usize],
+                    &ctx,
+                    sampler,
+                    &mut throughput,
+                ) else {
+                    match run.pass(&ray, &si, throughput) {
+                        Some(next) => ray = next,
+                        None => break,
+                    }
+                    continue;
+                };
+                let distance = run.end(si.t);
+                let glossy = bsdf.min_roughness() < GLOSSY_ROUGHNESS;
+                let glass = glossy && bsdf.has_transmission();
+                if !glass {
+                    if let Some(from) = glass_from.take() {
+                        leave_glass(&mut pending, from, ray.d);
+                    }
                 }
-                if self.settings.train_escaped {
-                    if let Some(last) = pending.last_mut() {
-                        if last.segment.distance < 0.0 {
-                            last.segment.distance = f32::INFINITY;
+                let open = pending.len();
+                if let Some(last) = pending.last_mut() {
+                    if last.segment.distance < 0.0 {
+                        last.segment.distance = distance;
+                        last.segment.glossy_endpoint = glossy;
+                        if glass {
+                            last.in_glass = true;
+                            glass_from.get_or_insert(open - 1);
                         }
                     }
                 }
-                break;
-            };
-            if let Some(e) = scene.shapes[si.shape as usize].emitter {
-                let le = scene.emitters[e as usize].eval_area(si.to_local(-ray.d).z);
-                if visible && le != Rgb::ZERO {
-                    let (mis, nee_pdf) = if prev_delta {
-                        (1.0, 0.0)
-                    } else {
-                        let nee_pdf = scene.pdf_emitter_direction_area(prev_p, &si);
-                        (power_heuristic(prev_pdf, nee_pdf), nee_pdf)
-                    };
-                    let emitted = throughput * le * mis;
-                    result += emitted;
-                    note_emission(&mut pending, emitted, nee_pdf);
-                    observer.light(TracedLight {
-                        depth,
-                        event: LightEvent::EmitterHit,
-                        value: emitted.element_sum() / 3.0,
-                    });
+                if depth == 0 {
+                    aovs.albedo = bsdf.albedo(&ctx);
+                    aovs.normal = si.sh_frame.n;
+                    aovs.depth = distance;
                 }
-            }
-            let ctx = BsdfContext { uv: si.uv };
-            // A pass-through is no vertex: no guiding, no training vertex, no depth; the MIS state of
-            // the last vertex stays.
-            let Some(bsdf) = resolve_pass_through(
-                &scene.bsdfs[scene.shapes[si.shape as usize].bsdf as usize],
-                &ctx,
-                sampler,
-                &mut throughput,
-            ) else {
-                match run.pass(&ray, &si, throughput) {
-                    Some(next) => ray = next,
-                    None => break,
-                }
-                continue;
-            };
-            let distance = run.end(si.t);
-            let glossy = bsdf.min_roughness() < GLOSSY_ROUGHNESS;
-            let glass = glossy && bsdf.has_transmission();
-            if !glass {
-                if let Some(from) = glass_from.take() {
-                    leave_glass(&mut pending, from, ray.d);
-                }
-            }
-            let open = pending.len();
-            if let Some(last) = pending.last_mut() {
-                if last.segment.distance < 0.0 {
-                    last.segment.distance = distance;
-                    last.segment.glossy_endpoint = glossy;
-                    if glass {
-                        last.in_glass = true;
-                        glass_from.get_or_insert(open - 1);
-                    }
-                }
-            }
-            if depth == 0 {
-                aovs.albedo = bsdf.albedo(&ctx);
-                aovs.normal = si.sh_frame.n;
-                aovs.depth = distance;
-            }
-            if depth.saturating_add(1) >= s.max_depth {
-                break;
-            }
-
-            let wi = si.to_local(-ray.d);
-            let guide = if bsdf.has_smooth() {
-                self.vertex_guide(si.p, glossy, sampler)
-            } else {
-                None
-            };
-            // The hemisphere the BSDF reflects into (shading normal on the incident side), for guides that
-            // can truncate their sampling to it.
-            let hint = (self.settings.hemisphere_hint && !bsdf.has_transmission())
-                .then(|| si.sh_frame.n * wi.z.signum());
-            if let Some(g) = guide {
-                g.guide.prepare(si.p, hint, &mut vertex);
-            }
-
-            // Next-event estimation, MIS-weighted against the full sampling mixture.
-            let direct = throughput
-                * next_event_estimate(scene, &si, bsdf, &ctx, wi, sampler, |wo, wo_world| {
-                    let p_bsdf = bsdf.pdf(&ctx, wi, wo);
-                    match guide {
-                        Some(g) => g.mixture_pdf(&vertex, p_bsdf, wo_world).0,
-                        None => p_bsdf,
-                    }
-                });
-            result += direct;
-            if direct != Rgb::ZERO {
-                observer.light(TracedLight {
-                    depth,
-                    event: LightEvent::NextEvent,
-                    value: direct.element_sum() / 3.0,
-                });
-            }
-
-            // Direction sampling: BSDF, or the one-sample BSDF/guide mixture.
-            let Some(step) = sample_direction(bsdf, guide, &vertex, &ctx, &si, wi, sampler) else {
-                break;
-            };
-            if let Some(from) = glass_from {
-                if step.eta != 1.0 {
-                    pending[from..].iter_mut().for_each(|p| p.refracted = true);
-                }
-            }
-            if self.record && !step.delta() {
-                pending.push(PendingSegment {
-                    segment: TrainingSegment {
-                        origin: si.p,
-                        direction: step.wo_world,
-                        distance: -1.0,
-                        weight: 0.0,
-                        pdf: step.pdf,
-                        bsdf_pdf: step.bsdf_pdf,
-                        guide_pdf: step.guide_pdf,
-                        guide_fraction: guide.map_or(0.0, |g| g.alpha),
-                        glossy_endpoint: false,
-                        glossy_origin: glossy,
-                        refracting_endpoint: false,
-                        emitted: 0.0,
-                        emitter_pdf: 0.0,
-                        pixel_weight: 1.0,
-                    },
-                    result_before: result,
-                    in_glass: false,
-                    refracted: false,
-                });
-            }
-            throughput *= step.weight;
-            observer.vertex(TracedVertex {
-                depth,
-                bsdf: bsdf.plugin_name(),
-                glossy,
-                guide_fraction: guide.map_or(0.0, |g| g.alpha),
-                strategy: step.strategy,
-                bsdf_pdf: step.bsdf_pdf,
-                guide_pdf: step.guide_pdf,
-                pdf: step.pdf,
-                weight: step.weight.max_element(),
-                throughput: throughput.max_element(),
-                survival: 1.0,
-            });
-            eta *= step.eta;
-            prev_p = si.p;
-            prev_pdf = step.pdf;
-            prev_delta = step.delta();
-            depth += 1;
-
-            let tmax = throughput.max_element();
-            if !(tmax > 0.0) || !tmax.is_finite() {
-                break;
-            }
-            if roulette == Roulette::Albedo {
-                albedo *= bsdf.albedo(&ctx).max_element();
-            }
-            let survival = match roulette {
-                Roulette::Off => 1.0,
-                Roulette::Throughput => tmax,
-                Roulette::Albedo => albedo,
-            };
-            if roulette != Roulette::Off && depth >= s.rr_depth {
-                let q = (survival * eta * eta).min(0.95);
-                observer.survival(q);
-                if sampler.next_1d() >= q {
+                if depth.saturating_add(1) >= s.max_depth {
                     break;
                 }
-                throughput /= q;
-                // As the throughput, the albedo product carries the survivals so far: the next vertex
-                // then survives by its own albedo, and reaching depth k has the probability of the
-                // albedo product. Without it every later roulette divided by the whole product
-                // again, and the boosts compounded (on the door gap 6 × 8.5 × 12 × 17 by the eighth
-                // vertex, the source of all of its 20 brightest samples).
-                albedo /= q;
+
+                let wi = si.to_local(-ray.d);
+                let guide = if bsdf.has_smooth() {
+                    self.vertex_guide(si.p, glossy, sampler)
+                } else {
+                    None
+                };
+                // The hemisphere the BSDF reflects into (shading normal on the incident side), for guides that
+                // can truncate their sampling to it.
+                let hint = (self.settings.hemisphere_hint && !bsdf.has_transmission())
+                    .then(|| si.sh_frame.n * wi.z.signum());
+                if let Some(g) = guide {
+                    g.guide.prepare(si.p, hint, &mut vertex);
+                }
+
+                // Next-event estimation, MIS-weighted against the full sampling mixture.
+                let direct = throughput
+                    * next_event_estimate(scene, &si, bsdf, &ctx, wi, sampler, |wo, wo_world| {
+                        let p_bsdf = bsdf.pdf(&ctx, wi, wo);
+                        match guide {
+                            Some(g) => g.mixture_pdf(&vertex, p_bsdf, wo_world).0,
+                            None => p_bsdf,
+                        }
+                    });
+                result += direct;
+                if direct != Rgb::ZERO {
+                    observer.light(TracedLight {
+                        depth,
+                        event: LightEvent::NextEvent,
+                        value: direct.element_sum() / 3.0,
+                        branch: 0,
+                    });
+                }
+
+                // Direction sampling: BSDF, or the one-sample BSDF/guide mixture.
+                let Some(step) = sample_direction(bsdf, guide, &vertex, &ctx, &si, wi, sampler)
+                else {
+                    break;
+                };
+                if let Some(from) = glass_from {
+                    if step.eta != 1.0 {
+                        pending[from..].iter_mut().for_each(|p| p.refracted = true);
+                    }
+                }
+                if self.record && !step.delta() {
+                    pending.push(PendingSegment {
+                        segment: TrainingSegment {
+                            origin: si.p,
+                            direction: step.wo_world,
+                            distance: -1.0,
+                            weight: 0.0,
+                            pdf: step.pdf,
+                            bsdf_pdf: step.bsdf_pdf,
+                            guide_pdf: step.guide_pdf,
+                            guide_fraction: guide.map_or(0.0, |g| g.alpha),
+                            glossy_endpoint: false,
+                            glossy_origin: glossy,
+                            refracting_endpoint: false,
+                            emitted: 0.0,
+                            emitter_pdf: 0.0,
+                            pixel_weight: 1.0,
+                        },
+                        result_before: result,
+                        in_glass: false,
+                        refracted: false,
+                    });
+                }
+                throughput *= step.weight;
+                observer.vertex(TracedVertex {
+                    depth,
+                    bsdf: bsdf.plugin_name(),
+                    glossy,
+                    guide_fraction: guide.map_or(0.0, |g| g.alpha),
+                    strategy: step.strategy,
+                    bsdf_pdf: step.bsdf_pdf,
+                    guide_pdf: step.guide_pdf,
+                    pdf: step.pdf,
+                    weight: step.weight.max_element(),
+                    throughput: throughput.max_element(),
+                    survival: 1.0,
+                    split: 1.0,
+                    branch: 0,
+                });
+                eta *= step.eta;
+                prev_p = si.p;
+                prev_pdf = step.pdf;
+                prev_delta = step.delta();
+                depth += 1;
+
+                let tmax = throughput.max_element();
+                if !(tmax > 0.0) || !tmax.is_finite() {
+                    break;
+                }
+                if roulette == Roulette::Albedo {
+                    albedo *= bsdf.albedo(&ctx).max_element();
+                }
+                let survival = match roulette {
+                    Roulette::Off => 1.0,
+                    Roulette::Throughput => tmax,
+                    Roulette::Albedo => albedo,
+                };
+                if roulette != Roulette::Off && depth >= s.rr_depth {
+                    let q = (survival * eta * eta).min(0.95);
+                    observer.survival(q);
+                    if sampler.next_1d() >= q {
+                        break;
+                    }
+                    throughput /= q;
+                    // As the throughput, the albedo product carries the survivals so far: the next vertex
+                    // then survives by its own albedo, and reaching depth k has the probability of the
+                    // albedo product. Without it every later roulette divided by the whole product
+                    // again, and the boosts compounded (on the door gap 6 × 8.5 × 12 × 17 by the eighth
+                    // vertex, the source of all of its 20 brightest samples).
+                    albedo /= q;
+                }
+                ray = Ray::new(offset_ray_origin(si.p, si.ng, step.wo_world), step.wo_world);
+                if split && roulette == Roulette::Albedo {
+                    let ratio = throughput.max_element() / albedo;
+                    if ratio > SPLIT_AT {
+                        let target = (ratio / SPLIT_AT).min(MAX_SPLIT);
+                        let extra = target.floor() as usize - 1
+                            + usize::from(sampler.next_1d() < target.fract());
+                        if made + extra <= MAX_BRANCHES {
+                            made += extra;
+                            throughput /= target;
+                            observer.split(target);
+                            for _ in 0..extra {
+                                branches.push(Branch {
+                                    ray,
+                                    throughput,
+                                    eta,
+                                    albedo,
+                                    depth,
+                                    prev_p,
+                                    prev_pdf,
+                                    prev_delta,
+                                });
+                            }
+                        }
+                    }
+                }
             }
-            ray = Ray::new(offset_ray_origin(si.p, si.ng, step.wo_world), step.wo_world);
+            let Some(b) = branches.pop() else {
+                break 'paths;
+            };
+            observer.resume();
+            ray = b.ray;
+            throughput = b.throughput;
+            eta = b.eta;
+            albedo = b.albedo;
+            depth = b.depth;
+            prev_p = b.prev_p;
+            prev_pdf = b.prev_pdf;
+            prev_delta = b.prev_delta;
+            run = PassThroughRun::default();
+            glass_from = None;
         }
 
         if self.record {
@@ -481,7 +566,13 @@ impl GuidedPathIntegrator<'_> {
                 }
             }
         }
-        SCRATCH.with(|s| s.set(PathScratch { pending, vertex }));
+        SCRATCH.with(|s| {
+            s.set(PathScratch {
+                pending,
+                vertex,
+                branches,
+            })
+        });
         result
     }
 }

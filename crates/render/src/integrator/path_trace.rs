@@ -1,6 +1,6 @@
 //! A record of one guided path's decisions, for finding where a render's fireflies come from: at every
 //! scattering vertex how the direction was chosen and with which densities, where Russian roulette
-//! boosted the throughput, and which light the path added. The guided integrator fills it through
+//! boosted the throughput, where the path was split, and which light the path added. The guided integrator fills it through
 //! [`PathObserver`] only when asked ([`crate::integrator::GuidedPathIntegrator::li_traced`]); its
 //! ordinary `li` observes nothing, at no cost.
 
@@ -41,6 +41,12 @@ pub struct TracedVertex {
     pub throughput: f32,
     /// The Russian roulette survival probability applied after this vertex (1 if none was played).
     pub survival: f32,
+    /// How many copies the path was split into after this vertex, in expectation (1 if not split; see
+    /// [`crate::integrator::GuidedSettings::split`]).
+    pub split: f32,
+    /// Which copy of the path this vertex belongs to: 0 for the camera path, k for the k-th split-off
+    /// copy continued (each continues from the vertex it was split at, so its depths go on from there).
+    pub branch: u32,
 }
 
 /// How a path added light.
@@ -65,6 +71,8 @@ pub struct TracedLight {
     pub event: LightEvent,
     /// The mean over channels of what it added (throughput, MIS weight and all).
     pub value: f32,
+    /// The copy of the path that found it (see [`TracedVertex::branch`]).
+    pub branch: u32,
 }
 
 /// One path's vertices and light, in order.
@@ -74,6 +82,8 @@ pub struct PathTrace {
     pub vertices: Vec<TracedVertex>,
     /// The light added.
     pub lights: Vec<TracedLight>,
+    /// Split-off copies continued so far (the branch the next records belong to).
+    pub branches: u32,
 }
 
 impl PathTrace {
@@ -82,6 +92,49 @@ impl PathTrace {
         self.lights
             .iter()
             .max_by(|a, b| a.value.total_cmp(&b.value))
+    }
+
+    /// The vertices a copy of the path went through from the camera on, one per depth: its own, after
+    /// those of the copy it was split from up to the vertex of the split (the last vertex recorded
+    /// before the copy's first one, one deeper than that, that split).
+    pub fn lineage(&self, branch: u32) -> Vec<TracedVertex> {
+        let mut out: Vec<TracedVertex> = Vec::new();
+        let mut branch = branch;
+        // Vertices before this index belong to earlier copies.
+        let mut end = self.vertices.len();
+        loop {
+            let own: Vec<(usize, &TracedVertex)> = self.vertices[..end]
+                .iter()
+                .enumerate()
+                .filter(|(_, v)| v.branch == branch)
+                .collect();
+            for (_, v) in own.iter().rev() {
+                if out.last().is_none_or(|l| v.depth < l.depth) {
+                    out.push(**v);
+                }
+            }
+            let Some(&(first, _)) = own.first() else {
+                break;
+            };
+            let Some(depth) = out.last().map(|v| v.depth) else {
+                break;
+            };
+            if branch == 0 || depth == 0 {
+                break;
+            }
+            let Some((at, parent)) = self.vertices[..first]
+                .iter()
+                .enumerate()
+                .rev()
+                .find(|(_, v)| v.depth + 1 == depth && v.split > 1.0)
+            else {
+                break;
+            };
+            branch = parent.branch;
+            end = at + 1;
+        }
+        out.reverse();
+        out
     }
 }
 
@@ -93,6 +146,10 @@ pub(crate) trait PathObserver {
     fn survival(&mut self, q: f32);
     /// The path added light.
     fn light(&mut self, light: TracedLight);
+    /// The path was split into `copies` (in expectation) after the last vertex.
+    fn split(&mut self, copies: f32);
+    /// A split-off copy is continued; what follows belongs to it.
+    fn resume(&mut self);
 }
 
 /// Observes nothing: the ordinary render.
@@ -103,11 +160,18 @@ impl PathObserver for () {
     fn survival(&mut self, _: f32) {}
     #[inline(always)]
     fn light(&mut self, _: TracedLight) {}
+    #[inline(always)]
+    fn split(&mut self, _: f32) {}
+    #[inline(always)]
+    fn resume(&mut self) {}
 }
 
 impl PathObserver for PathTrace {
     fn vertex(&mut self, vertex: TracedVertex) {
-        self.vertices.push(vertex);
+        self.vertices.push(TracedVertex {
+            branch: self.branches,
+            ..vertex
+        });
     }
     fn survival(&mut self, q: f32) {
         if let Some(v) = self.vertices.last_mut() {
@@ -115,6 +179,17 @@ impl PathObserver for PathTrace {
         }
     }
     fn light(&mut self, light: TracedLight) {
-        self.lights.push(light);
+        self.lights.push(TracedLight {
+            branch: self.branches,
+            ..light
+        });
+    }
+    fn split(&mut self, copies: f32) {
+        if let Some(v) = self.vertices.last_mut() {
+            v.split = copies;
+        }
+    }
+    fn resume(&mut self) {
+        self.branches += 1;
     }
 }
