@@ -88,8 +88,9 @@ pub struct GuidedSettings {
     pub hemisphere_hint: bool,
     /// Split a path whose throughput the one-sample mixture has inflated beyond twice the product of
     /// the BSDF albedos (with the roulette's survivals, as `Roulette::Albedo` keeps it) into copies
-    /// carrying at most twice it each (at most four per vertex and 64 per camera sample), in renders
-    /// that record no training segments; only with albedo roulette. Where the guide does not cover the
+    /// carrying twice it each (fewer where the caps of four per vertex and 64 per camera sample bind;
+    /// a random count of copies with that expectation), in renders that record no training segments;
+    /// only with albedo roulette. Where the guide does not cover the
     /// directions the BSDF samples, every BSDF-branch vertex multiplies the weight by up to 1/(1 − α)
     /// (4 at α = 0.75) at probability 1 − α, so the second moment of a diffuse chain grows by that
     /// factor per vertex: the brightest samples of the camera obscura, the lens focus and the door gap
@@ -148,7 +149,7 @@ struct Branch {
 }
 
 /// A path is split where its throughput exceeds this many times the albedo product, into copies that
-/// each carry at most this many times it (see [`GuidedSettings::split`]).
+/// each carry this many times it (see [`GuidedSettings::split`]).
 const SPLIT_AT: f32 = 2.0;
 /// The most copies one split makes, in expectation.
 const MAX_SPLIT: f32 = 4.0;
