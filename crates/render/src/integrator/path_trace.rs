@@ -1,8 +1,9 @@
 //! A record of one guided path's decisions, for finding where a render's fireflies come from: at every
 //! scattering vertex how the direction was chosen and with which densities, where Russian roulette
-//! boosted the throughput, where the path was split, and which light the path added. The guided integrator fills it through
-//! [`PathObserver`] only when asked ([`crate::integrator::GuidedPathIntegrator::li_traced`]); its
-//! ordinary `li` observes nothing, at no cost.
+//! boosted the throughput, where the path was split, and which light the path added. The guided
+//! integrator fills it through [`PathObserver`] only when asked
+//! ([`crate::integrator::GuidedPathIntegrator::li_traced`]); its ordinary `li` observes nothing, at no
+//! cost.
 
 /// How a vertex chose its outgoing direction.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
@@ -95,12 +96,14 @@ impl PathTrace {
     }
 
     /// The vertices a copy of the path went through from the camera on, one per depth: its own, after
-    /// those of the copy it was split from up to the vertex of the split (the last vertex recorded
-    /// before the copy's first one, one deeper than that, that split).
+    /// those of the copy it was split from, up to the vertex of the split. That vertex is the last one
+    /// recorded before the copy's first vertex that lies one depth shallower and split (copies run one
+    /// after another, so this finds it). Empty if the copy recorded no vertex of its own (it found
+    /// its light on the ray it was split with, or nothing).
     pub fn lineage(&self, branch: u32) -> Vec<TracedVertex> {
         let mut out: Vec<TracedVertex> = Vec::new();
         let mut branch = branch;
-        // Vertices before this index belong to earlier copies.
+        // Only records made up to the split the current copy came from count.
         let mut end = self.vertices.len();
         loop {
             let own: Vec<(usize, &TracedVertex)> = self.vertices[..end]
