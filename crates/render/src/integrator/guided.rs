@@ -3,7 +3,7 @@
 //! next-event estimation is MIS-weighted against the mixture pdf, and the path's segments are recorded as
 //! training data for the next iteration.
 
-use super::path_trace::{LightEvent, PathObserver, PathTrace, Strategy, TracedLight, TracedVertex};
+use super::path_trace::{LightEvent, PathObserver, PathTrace, Strategy, TracedVertex};
 use super::{
     next_event_estimate, power_heuristic, resolve_pass_through, FirstHitAovs, Integrator,
     PassThroughRun, PathSettings,
@@ -304,21 +304,17 @@ impl GuidedPathIntegrator<'_> {
                     if let Some(env) = scene.environment {
                         if visible {
                             let le = scene.emitters[env as usize].eval_environment(ray.d);
-                            let (mis, nee_pdf) = if prev_delta {
-                                (1.0, 0.0)
-                            } else {
-                                let nee_pdf = scene.pdf_emitter_direction_env(ray.d);
-                                (power_heuristic(prev_pdf, nee_pdf), nee_pdf)
-                            };
+                            let (mis, nee_pdf) = mis_against_nee(prev_delta, prev_pdf, || {
+                                scene.pdf_emitter_direction_env(ray.d)
+                            });
                             let emitted = throughput * le * mis;
                             result += emitted;
                             note_emission(&mut pending, emitted, nee_pdf);
-                            observer.light(TracedLight {
+                            observer.light(
                                 depth,
-                                event: LightEvent::Environment,
-                                value: emitted.element_sum() / 3.0,
-                                branch: 0,
-                            });
+                                LightEvent::Environment,
+                                emitted.element_sum() / 3.0,
+                            );
                         }
                     }
                     if let Some(from) = glass_from.take() {
@@ -336,21 +332,13 @@ impl GuidedPathIntegrator<'_> {
                 if let Some(e) = scene.shapes[si.shape as usize].emitter {
                     let le = scene.emitters[e as usize].eval_area(si.to_local(-ray.d).z);
                     if visible && le != Rgb::ZERO {
-                        let (mis, nee_pdf) = if prev_delta {
-                            (1.0, 0.0)
-                        } else {
-                            let nee_pdf = scene.pdf_emitter_direction_area(prev_p, &si);
-                            (power_heuristic(prev_pdf, nee_pdf), nee_pdf)
-                        };
+                        let (mis, nee_pdf) = mis_against_nee(prev_delta, prev_pdf, || {
+                            scene.pdf_emitter_direction_area(prev_p, &si)
+                        });
                         let emitted = throughput * le * mis;
                         result += emitted;
                         note_emission(&mut pending, emitted, nee_pdf);
-                        observer.light(TracedLight {
-                            depth,
-                            event: LightEvent::EmitterHit,
-                            value: emitted.element_sum() / 3.0,
-                            branch: 0,
-                        });
+                        observer.light(depth, LightEvent::EmitterHit, emitted.element_sum() / 3.0);
                     }
                 }
                 let ctx = BsdfContext { uv: si.uv };
@@ -421,12 +409,7 @@ impl GuidedPathIntegrator<'_> {
                     });
                 result += direct;
                 if direct != Rgb::ZERO {
-                    observer.light(TracedLight {
-                        depth,
-                        event: LightEvent::NextEvent,
-                        value: direct.element_sum() / 3.0,
-                        branch: 0,
-                    });
+                    observer.light(depth, LightEvent::NextEvent, direct.element_sum() / 3.0);
                 }
 
                 // Direction sampling: BSDF, or the one-sample BSDF/guide mixture.
@@ -541,14 +524,16 @@ impl GuidedPathIntegrator<'_> {
                 break 'paths;
             };
             observer.resume();
-            ray = b.ray;
-            throughput = b.throughput;
-            eta = b.eta;
-            albedo = b.albedo;
-            depth = b.depth;
-            prev_p = b.prev_p;
-            prev_pdf = b.prev_pdf;
-            prev_delta = b.prev_delta;
+            Branch {
+                ray,
+                throughput,
+                eta,
+                albedo,
+                depth,
+                prev_p,
+                prev_pdf,
+                prev_delta,
+            } = b;
             run = PassThroughRun::default();
             glass_from = None;
         }
@@ -575,6 +560,19 @@ impl GuidedPathIntegrator<'_> {
             })
         });
         result
+    }
+}
+
+/// The MIS weight of emission found by a sampled direction against next-event estimation, and NEE's
+/// pdf of it (`nee_pdf`, evaluated only if the direction was not a delta lobe's; 0 if it was, where NEE
+/// cannot compete).
+#[inline]
+fn mis_against_nee(prev_delta: bool, prev_pdf: f32, nee_pdf: impl FnOnce() -> f32) -> (f32, f32) {
+    if prev_delta {
+        (1.0, 0.0)
+    } else {
+        let nee_pdf = nee_pdf();
+        (power_heuristic(prev_pdf, nee_pdf), nee_pdf)
     }
 }
 

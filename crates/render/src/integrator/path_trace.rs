@@ -147,8 +147,8 @@ pub(crate) trait PathObserver {
     fn vertex(&mut self, vertex: TracedVertex);
     /// Russian roulette kept the path with probability `q` after the last vertex.
     fn survival(&mut self, q: f32);
-    /// The path added light.
-    fn light(&mut self, light: TracedLight);
+    /// The path added light: `value` (the mean over channels) found by `event` after `depth` vertices.
+    fn light(&mut self, depth: u32, event: LightEvent, value: f32);
     /// The path was split into `copies` (in expectation) after the last vertex.
     fn split(&mut self, copies: f32);
     /// A split-off copy is continued; what follows belongs to it.
@@ -162,7 +162,7 @@ impl PathObserver for () {
     #[inline(always)]
     fn survival(&mut self, _: f32) {}
     #[inline(always)]
-    fn light(&mut self, _: TracedLight) {}
+    fn light(&mut self, _: u32, _: LightEvent, _: f32) {}
     #[inline(always)]
     fn split(&mut self, _: f32) {}
     #[inline(always)]
@@ -181,10 +181,12 @@ impl PathObserver for PathTrace {
             v.survival = q;
         }
     }
-    fn light(&mut self, light: TracedLight) {
+    fn light(&mut self, depth: u32, event: LightEvent, value: f32) {
         self.lights.push(TracedLight {
+            depth,
+            event,
+            value,
             branch: self.branches,
-            ..light
         });
     }
     fn split(&mut self, copies: f32) {
