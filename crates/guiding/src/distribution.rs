@@ -112,6 +112,10 @@ pub struct TrainingSegment {
     /// The renderer's weight of the path's pixel, 1/(I² + ε) with I the pixel's estimate so far, so that
     /// second moments weigh every pixel's relative error alike, as relMSE does (1 when unknown).
     pub pixel_weight: f32,
+    /// The RGB mean of the path throughput at x_k before ω was sampled (0 when unknown): `weight` /
+    /// `throughput` is the one-sample estimate of the radiance x_k reflects towards the path.
+    #[serde(default)]
+    pub throughput: f32,
 }
 
 /// A direction proposed by a guide.
@@ -202,6 +206,13 @@ pub trait GuidingDistribution: Send + Sync {
     /// [`GuidingDistribution::pdf`] at a vertex made by [`GuidingDistribution::prepare`].
     fn pdf_at(&self, vertex: &GuideVertex, d: Vec3) -> f32 {
         self.pdf(vertex.x, vertex.normal, d)
+    }
+
+    /// True if the distribution also wants the segments whose continuation carried nothing (weight 0):
+    /// a guide that needs every vertex's mean contribution (the GMM's MIS compensation) counts them.
+    /// False by default: such segments teach the other guides nothing.
+    fn wants_empty_segments(&self) -> bool {
+        false
     }
 
     /// The probability with which a renderer should sample this guide rather than the BSDF at `x`, if

@@ -79,6 +79,7 @@ fn focal_segments(rng: &mut Rng, n: usize) -> Vec<TrainingSegment> {
                 emitted: 0.0,
                 emitter_pdf: 0.0,
                 pixel_weight: 1.0,
+                throughput: 0.0,
             }
         })
         .collect()
@@ -107,6 +108,7 @@ fn virtual_image_segments(rng: &mut Rng, n: usize) -> Vec<TrainingSegment> {
                 emitted: 0.0,
                 emitter_pdf: 0.0,
                 pixel_weight: 1.0,
+                throughput: 0.0,
             }
         })
         .collect()

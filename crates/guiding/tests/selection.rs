@@ -54,6 +54,7 @@ fn segments(
                 emitted: 0.0,
                 emitter_pdf: 0.0,
                 pixel_weight: 1.0,
+                throughput: 0.0,
             })
         })
         .collect()
@@ -199,6 +200,7 @@ fn invalid_segments_are_ignored_and_the_choice_stays_finite() {
         emitted: 0.0,
         emitter_pdf: 0.0,
         pixel_weight: 1.0,
+        throughput: 0.0,
     };
     let bad = [
         TrainingSegment {
@@ -278,6 +280,7 @@ fn gmm_guide_learns_and_saves_its_selection() {
             emitted: 0.0,
             emitter_pdf: 0.0,
             pixel_weight: 1.0,
+            throughput: 0.0,
         });
     }
     let ctx = |final_build| UpdateContext {

@@ -407,6 +407,9 @@ impl GuidingDistribution for RecordingGuide {
     fn selection_probability(&self, x: glam::Vec3, glossy: bool) -> Option<f32> {
         self.inner.selection_probability(x, glossy)
     }
+    fn wants_empty_segments(&self) -> bool {
+        self.inner.wants_empty_segments()
+    }
     fn record(&mut self, segments: &[focal_render::guiding::TrainingSegment]) {
         self.seen
             .extend(segments.iter().map(|s| (self.iteration, *s)));
@@ -474,6 +477,48 @@ fn training_segments_carry_emission_and_pixel_weights() {
         .iter()
         .fold((f32::MAX, 0.0f32), |(a, b), &w| (a.min(w), b.max(w)));
     assert!(lo < 0.5 && hi > 0.7, "pixel weights span [{lo}, {hi}]");
+}
+
+/// A guide that counts the vertices whose continuation carried nothing (the GMM's MIS compensation
+/// needs every vertex's mean) is handed those segments too, with weight 0; every segment carries the
+/// path throughput at its origin. A guide that does not ask gets contributing segments only.
+#[test]
+fn empty_segments_reach_only_the_guides_that_ask_for_them() {
+    let scene = load(&reference_scene("cbox"), &[("res", "24")]);
+    for kappa in [0.0, 1.0] {
+        let params = GuideParams {
+            gmm: focal_render::guiding::GmmConfig {
+                compensation: kappa,
+                ..Default::default()
+            },
+            ..Default::default()
+        };
+        let mut guide = RecordingGuide {
+            inner: guide_with(GuidingMethod::Gmm, &scene, &params),
+            iteration: 0,
+            seen: Vec::new(),
+        };
+        let out = render_with(
+            &scene,
+            Some(&mut guide),
+            &guided_settings(8, 3, 0, Combine::InverseVariance),
+        );
+        assert!(all_finite(&out.image));
+        let seen = &guide.seen;
+        assert!(seen
+            .iter()
+            .all(|(_, s)| s.weight >= 0.0 && s.throughput > 0.0));
+        let empty = seen.iter().filter(|(_, s)| s.weight == 0.0).count();
+        if kappa > 0.0 {
+            assert!(
+                empty > 0 && empty < seen.len(),
+                "{empty} of {} segments empty",
+                seen.len()
+            );
+        } else {
+            assert_eq!(empty, 0);
+        }
+    }
 }
 
 /// Segments from a floor up into glass are told apart by what the glass did to the path: a ball bends

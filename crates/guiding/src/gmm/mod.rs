@@ -20,6 +20,7 @@ mod guide;
 mod mixture;
 mod origins;
 pub mod rays;
+pub mod reflected;
 pub mod special;
 pub mod special32;
 mod sym3;

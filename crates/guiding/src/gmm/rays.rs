@@ -45,6 +45,9 @@ pub struct TrainingRay {
     pub weight: f32,
     /// p_mix(ω) at x_k (> 0).
     pub pdf: f32,
+    /// T·p_bsdf(ω)/p_mix(ω) of the segment (T the path throughput at x_k; 0 where not compensated):
+    /// times the region's reflected radiance, the part of `weight` the BSDF alone would have found.
+    pub expected: f32,
 }
 
 /// A point for EM: position (unit frame) and weight.

@@ -223,5 +223,6 @@ pub fn segment_through(rng: &mut Rng, aabb: Aabb3, y: DVec3, w: f32) -> Training
         emitted: 0.0,
         emitter_pdf: 0.0,
         pixel_weight: 1.0,
+        throughput: 0.0,
     }
 }

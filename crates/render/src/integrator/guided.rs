@@ -97,6 +97,10 @@ pub struct GuidedSettings {
     /// were such chains of 5–10 vertices. Splitting averages their continuations instead (a weight
     /// window as Vorba and Křivánek's, with the albedo product standing in for the learned adjoint).
     pub split: bool,
+    /// Also record the segments that carried no contribution (weight 0), for guides that count them
+    /// ([`GuidingDistribution::wants_empty_segments`]).
+    #[serde(default)]
+    pub record_empty: bool,
 }
 
 impl Default for GuidedSettings {
@@ -109,6 +113,7 @@ impl Default for GuidedSettings {
             learned_selection: true,
             hemisphere_hint: true,
             split: true,
+            record_empty: false,
         }
     }
 }
@@ -439,6 +444,7 @@ impl GuidedPathIntegrator<'_> {
                             emitted: 0.0,
                             emitter_pdf: 0.0,
                             pixel_weight: 1.0,
+                            throughput: throughput.element_sum() / 3.0,
                         },
                         result_before: result,
                         in_glass: false,
@@ -545,7 +551,7 @@ impl GuidedPathIntegrator<'_> {
                     continue;
                 }
                 let c = (result - p.result_before).element_sum() / 3.0;
-                if c > 0.0 && c.is_finite() {
+                if c > 0.0 && c.is_finite() || self.settings.record_empty && c == 0.0 {
                     let mut seg = p.segment;
                     seg.weight = c;
                     training.push(seg);

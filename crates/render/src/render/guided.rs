@@ -360,7 +360,11 @@ pub fn render_guided(
                 runner.run_pass(&unguided, count, &on_tile)
             } else {
                 let integrator = GuidedPathIntegrator {
-                    settings: settings.integrator,
+                    settings: GuidedSettings {
+                        record_empty: training
+                            && guide.as_deref().is_some_and(|g| g.wants_empty_segments()),
+                        ..settings.integrator
+                    },
                     guide: if guided { guide.as_deref() } else { None },
                     record: training,
                 };
