@@ -975,10 +975,8 @@ fn the_origin_model_learns_from_where_each_focus_is_seen() {
                 let Some(s) = guide.sample(x, None, u) else {
                     continue;
                 };
-                let (o, d) = (x.as_dvec3(), s.direction.as_dvec3());
                 for (f, focus) in foci.iter().enumerate() {
-                    let v = *focus - o;
-                    if (v - d * v.dot(d).max(0.0)).length() < 0.1 {
+                    if passes_near(x.as_dvec3(), s.direction.as_dvec3(), *focus) {
                         out[r][f] += 1.0 / n as f64;
                     }
                 }
@@ -1012,6 +1010,12 @@ fn the_origin_model_learns_from_where_each_focus_is_seen() {
     }
 }
 
+/// True if the ray from `x` along unit `d` passes within 0.1 of `y`.
+fn passes_near(x: DVec3, d: DVec3, y: DVec3) -> bool {
+    let v = y - x;
+    (v - d * v.dot(d).max(0.0)).length() < 0.1
+}
+
 /// Share of guide samples, from `n` random shading points in the box, whose rays pass within 0.1 of `y`.
 fn samples_through(guide: &GmmGuide, aabb: Aabb3, y: DVec3, rng: &mut Rng, n: usize) -> f64 {
     let mut hits = 0;
@@ -1021,8 +1025,7 @@ fn samples_through(guide: &GmmGuide, aabb: Aabb3, y: DVec3, rng: &mut Rng, n: us
         let Some(s) = guide.sample(x.as_vec3(), None, u) else {
             continue;
         };
-        let (v, d) = (y - x, s.direction.as_dvec3());
-        if (v - d * v.dot(d).max(0.0)).length() < 0.1 {
+        if passes_near(x, s.direction.as_dvec3(), y) {
             hits += 1;
         }
     }

@@ -319,10 +319,7 @@ impl GmmGuide {
             updates: 0,
             pending: Pending::default(),
             selection: SelectionGrid::new(aabb, selection_config(&config))?,
-            reflected: ReflectedRadiance::new(
-                (aabb.min.as_dvec3() - center) / scale,
-                (aabb.max.as_dvec3() - center) / scale,
-            ),
+            reflected: ReflectedRadiance::new(unit_box(aabb, center, scale)),
             final_render: false,
         })
     }
@@ -697,10 +694,7 @@ impl GmmGuide {
             updates: snapshot.updates,
             pending: Pending::default(),
             selection: snapshot.selection,
-            reflected: ReflectedRadiance::new(
-                (aabb.min.as_dvec3() - center) / scale,
-                (aabb.max.as_dvec3() - center) / scale,
-            ),
+            reflected: ReflectedRadiance::new(unit_box(aabb, center, scale)),
             final_render: true,
         })
     }
@@ -737,8 +731,7 @@ impl GmmGuide {
         pdf: f64,
         expected: f64,
     ) {
-        let lo = (self.aabb.min.as_dvec3() - self.center) / self.scale;
-        let hi = (self.aabb.max.as_dvec3() - self.center) / self.scale;
+        let (lo, hi) = unit_box(self.aabb, self.center, self.scale);
         let Some((t0, t1)) = clip_to_box(o, d, t_max, lo, hi) else {
             self.pending.empty += 1;
             return;
@@ -768,6 +761,14 @@ impl GmmGuide {
             self.pending.thinned += 1;
         }
     }
+}
+
+/// The corners of the scene box in the unit frame (`center`, `scale`) the mixtures and rays live in.
+fn unit_box(aabb: Aabb3, center: DVec3, scale: f64) -> (DVec3, DVec3) {
+    (
+        (aabb.min.as_dvec3() - center) / scale,
+        (aabb.max.as_dvec3() - center) / scale,
+    )
 }
 
 /// Keeps every other ray with doubled weight: the buffer's expected total weight is unchanged.

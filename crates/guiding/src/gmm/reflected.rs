@@ -27,8 +27,8 @@ pub struct ReflectedRadiance {
 }
 
 impl ReflectedRadiance {
-    /// An empty hierarchy over the box [`lo`, `hi`].
-    pub fn new(lo: DVec3, hi: DVec3) -> Self {
+    /// An empty hierarchy over the box [`lo`, `hi`] (its two corners).
+    pub fn new((lo, hi): (DVec3, DVec3)) -> Self {
         let mut levels = Vec::new();
         let mut res = 1;
         while res <= FINEST {
@@ -87,7 +87,7 @@ mod tests {
     use super::*;
 
     fn grid() -> ReflectedRadiance {
-        ReflectedRadiance::new(DVec3::splat(-1.0), DVec3::splat(1.0))
+        ReflectedRadiance::new((DVec3::splat(-1.0), DVec3::splat(1.0)))
     }
 
     #[test]
