@@ -743,7 +743,8 @@ impl GmmGuide {
         };
         let sparse_sigma = c.sparse_prior_sigma * diagonal;
         let strength = (c.prior_strength + sparse_share).min(1.0);
-        let prior_sigma = if c.prior_strength + sparse_share > 0.0 {
+        // Without the sparse prior the base one is used exactly as given (same model, bit for bit).
+        let prior_sigma = if sparse_share > 0.0 {
             ((c.prior_strength * base_sigma * base_sigma
                 + sparse_share * sparse_sigma * sparse_sigma)
                 / (c.prior_strength + sparse_share))
