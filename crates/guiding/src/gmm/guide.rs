@@ -999,8 +999,7 @@ impl GuidingDistribution for GmmGuide {
             for rays in [&mut pending.conv, &mut pending.div] {
                 for r in rays.iter_mut() {
                     if r.expected > 0.0 {
-                        let o = DVec3::from_array(r.origin.map(|v| v as f64));
-                        let found = kappa * self.reflected.at(o) * r.expected as f64;
+                        let found = kappa * self.reflected.at(r.origin_f64()) * r.expected as f64;
                         r.weight = (r.weight as f64 - found).max(0.0) as f32;
                     }
                 }
@@ -1009,11 +1008,7 @@ impl GuidingDistribution for GmmGuide {
             self.reflected.decay(decay);
         }
         // Drop a mixture whose data would hold a negligible share: no fit, no pdf cost.
-        let ray_mass = |rays: &[TrainingRay]| {
-            rays.iter()
-                .map(|r| r.weight as f64 * (r.t1 - r.t0) as f64)
-                .sum::<f64>()
-        };
+        let ray_mass = |rays: &[TrainingRay]| rays.iter().map(TrainingRay::mass).sum::<f64>();
         let mass_conv = decay * self.conv.weight() + ray_mass(&pending.conv);
         let mass_div = decay * self.div.weight() + ray_mass(&pending.div);
         let total_mass = mass_conv + mass_div;
@@ -1066,24 +1061,25 @@ impl GuidingDistribution for GmmGuide {
 
         let fit_start = Instant::now();
         let effective = |rays: &[TrainingRay], previous: f64| {
-            let (sum, sum2) = rays.iter().fold((0.0f64, 0.0f64), |(s, s2), r| {
-                let m = r.weight as f64 * (r.t1 - r.t0) as f64;
-                (s + m, s2 + m * m)
-            });
+            let (sum, sum2) = rays
+                .iter()
+                .map(TrainingRay::mass)
+                .fold((0.0, 0.0), |(s, s2), m| (s + m, s2 + m * m));
             decay * previous + if sum2 > 0.0 { sum * sum / sum2 } else { 0.0 }
         };
         self.effective_rays = [
             effective(&pending.conv, self.effective_rays[0]),
             effective(&pending.div, self.effective_rays[1]),
         ];
-        let fit_state = |state: &MixtureState, points, tag: u64| {
-            let params = self.fit_params(mix64(seed ^ tag), self.effective_rays[tag as usize - 1]);
+        let fit_state = |state: &MixtureState, points, tag: u64, effective_rays: f64| {
+            let params = self.fit_params(mix64(seed ^ tag), effective_rays);
             let (mixture, stats, report) =
                 fit(&state.mixture, &state.stats, points, decay, &params);
             (MixtureState { mixture, stats }, report)
         };
-        let (mut conv, conv_report) = fit_state(&self.conv, &conv_points, 1);
-        let (mut div, div_report) = fit_state(&self.div, &div_points, 2);
+        let [conv_rays, div_rays] = self.effective_rays;
+        let (mut conv, conv_report) = fit_state(&self.conv, &conv_points, 1, conv_rays);
+        let (mut div, div_report) = fit_state(&self.div, &div_points, 2, div_rays);
         let fit_seconds = fit_start.elapsed().as_secs_f64();
         let origins_start = Instant::now();
         if self.config.condition_on_origins {

@@ -217,7 +217,7 @@ pub fn fit_origins(
                 let Some(ray) = rays.get(index) else {
                     continue;
                 };
-                let o = DVec3::from_array(ray.origin.map(|v| v as f64));
+                let o = ray.origin_f64();
                 let d = DVec3::from_array(ray.direction.map(|v| v as f64));
                 let w = ray.weight as f64;
                 let usable = w > 0.0 && w.is_finite();

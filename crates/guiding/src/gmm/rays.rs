@@ -50,6 +50,18 @@ pub struct TrainingRay {
     pub expected: f32,
 }
 
+impl TrainingRay {
+    /// The origin in `f64`.
+    pub fn origin_f64(&self) -> DVec3 {
+        DVec3::from_array(self.origin.map(|v| v as f64))
+    }
+
+    /// The ray's share of the fitting target: its weight times its clipped length.
+    pub fn mass(&self) -> f64 {
+        self.weight as f64 * (self.t1 - self.t0) as f64
+    }
+}
+
 /// A point for EM: position (unit frame) and weight.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct WeightedPoint {
@@ -290,7 +302,7 @@ pub fn ray_points(
     scale: f64,
     out: &mut Vec<WeightedPoint>,
 ) {
-    let o = DVec3::from_array(ray.origin.map(|v| v as f64));
+    let o = ray.origin_f64();
     let d = DVec3::from_array(ray.direction.map(|v| v as f64));
     let (t0, t1) = (ray.t0 as f64, ray.t1 as f64);
     let c = ray.weight as f64 * scale;
