@@ -176,6 +176,18 @@ pub struct GmmConfig {
     pub origin_spread: f64,
     /// Least standard deviation of an origin Gaussian, as a fraction of the box's largest half-extent.
     pub origin_min_sigma: f64,
+    /// β of tempered training weights: each update's rays are fitted with c^β instead of c, rescaled so
+    /// that each mixture's total mass is unchanged (1, the default, fits c as Rath et al. do). Below 1
+    /// a few heavy rays (a caustic's fireflies) no longer decide the fit alone.
+    pub weight_power: f64,
+    /// Clamp each update's heaviest training rays (per mixture) so that at least this many rays stand
+    /// behind the fit by weight, (Σm)²/Σm² over the masses m = c·length (fewer if there are fewer rays),
+    /// keeping the total mass; 0 (the default) leaves the weights alone.
+    pub min_effective_rays: f64,
+    /// Truncated importance weights (Ionides 2008): each update's training weights are clamped at this
+    /// factor times √N times their mean (N the mixture's rays in the update), keeping the total mass;
+    /// 0 (the default) leaves them alone.
+    pub weight_truncation: f64,
 }
 
 impl Default for GmmConfig {
@@ -211,6 +223,9 @@ impl Default for GmmConfig {
             origin_floor: 0.5,
             origin_spread: 2.0,
             origin_min_sigma: 0.05,
+            weight_power: 1.0,
+            min_effective_rays: 0.0,
+            weight_truncation: 0.0,
         }
     }
 }
@@ -254,6 +269,15 @@ impl GmmConfig {
         }
         if !(self.split_threshold >= 0.0) || !(self.merge_threshold >= 0.0) {
             return fail("split and merge thresholds must be >= 0 (infinity disables splits)");
+        }
+        if !(self.weight_power > 0.0 && self.weight_power <= 1.0) {
+            return fail("weight_power must lie in (0, 1]");
+        }
+        if !(self.min_effective_rays >= 0.0 && self.min_effective_rays.is_finite()) {
+            return fail("min_effective_rays must be finite and >= 0");
+        }
+        if !(self.weight_truncation >= 0.0 && self.weight_truncation.is_finite()) {
+            return fail("weight_truncation must be finite and >= 0");
         }
         if !(0.0..1.0).contains(&self.prune_share) {
             return fail("prune_share must lie in [0, 1)");
@@ -812,6 +836,88 @@ impl GmmGuide {
     }
 }
 
+/// Replaces every ray's weight c by s·c^β, with s chosen so that the rays' total mass Σ c·length is
+/// unchanged.
+fn temper_weights(rays: &mut [TrainingRay], beta: f64) {
+    let before: f64 = rays.iter().map(TrainingRay::mass).sum();
+    for r in rays.iter_mut() {
+        r.weight = (r.weight as f64).powf(beta) as f32;
+    }
+    restore_mass(rays, before);
+}
+
+/// Clamps the rays' weights at `factor`·√N·mean (Ionides' truncated importance sampling), then
+/// rescales them to the total mass they had.
+fn truncate_weights(rays: &mut [TrainingRay], factor: f64) {
+    if rays.is_empty() {
+        return;
+    }
+    let n = rays.len() as f64;
+    let mean = rays.iter().map(|r| r.weight as f64).sum::<f64>() / n;
+    let cap = factor * n.sqrt() * mean;
+    if !(cap > 0.0 && cap.is_finite()) {
+        return;
+    }
+    rescale_clamped(rays, cap);
+}
+
+/// Clamps every weight at `cap` and rescales them all so that the total mass is what it was.
+fn rescale_clamped(rays: &mut [TrainingRay], cap: f64) {
+    let before: f64 = rays.iter().map(TrainingRay::mass).sum();
+    for r in rays.iter_mut() {
+        r.weight = (r.weight as f64).min(cap) as f32;
+    }
+    restore_mass(rays, before);
+}
+
+/// Scales every weight so that the rays' total mass is `before` again.
+fn restore_mass(rays: &mut [TrainingRay], before: f64) {
+    let after: f64 = rays.iter().map(TrainingRay::mass).sum();
+    if after > 0.0 && before.is_finite() {
+        let s = before / after;
+        for r in rays.iter_mut() {
+            r.weight = (r.weight as f64 * s) as f32;
+        }
+    }
+}
+
+/// Clamps the rays' weights at the least bound for which (Σm)²/Σm² over their masses m = c·length
+/// reaches `target` (or 0.999 of the ray count, if that is smaller), then rescales them to the total
+/// mass they had. The effective count grows as the bound falls, so the bound is found by bisection
+/// on its logarithm.
+fn clamp_to_effective_rays(rays: &mut [TrainingRay], target: f64) {
+    let target = target.min(0.999 * rays.len() as f64);
+    let effective = |cap: f64| {
+        let (s, s2) = rays.iter().fold((0.0f64, 0.0f64), |(s, s2), r| {
+            let m = (r.weight as f64).min(cap) * (r.t1 - r.t0) as f64;
+            (s + m, s2 + m * m)
+        });
+        if s2 > 0.0 {
+            s * s / s2
+        } else {
+            0.0
+        }
+    };
+    let max_weight = rays.iter().map(|r| r.weight as f64).fold(0.0, f64::max);
+    if !(max_weight > 0.0 && max_weight.is_finite()) || effective(max_weight) >= target {
+        return;
+    }
+    let min_weight = rays
+        .iter()
+        .map(|r| r.weight as f64)
+        .fold(f64::INFINITY, f64::min);
+    let (mut lo, mut hi) = (min_weight.ln(), max_weight.ln());
+    for _ in 0..60 {
+        let mid = 0.5 * (lo + hi);
+        if effective(mid.exp()) >= target {
+            lo = mid;
+        } else {
+            hi = mid;
+        }
+    }
+    rescale_clamped(rays, lo.exp());
+}
+
 /// The corners of the scene box in the unit frame (`center`, `scale`) the mixtures and rays live in.
 fn unit_box(aabb: Aabb3, center: DVec3, scale: f64) -> (DVec3, DVec3) {
     (
@@ -1006,6 +1112,24 @@ impl GuidingDistribution for GmmGuide {
                 rays.retain(|r| r.weight > 0.0);
             }
             self.reflected.decay(decay);
+        }
+        if self.config.weight_power != 1.0 {
+            let beta = self.config.weight_power;
+            for rays in [&mut pending.conv, &mut pending.div] {
+                temper_weights(rays, beta);
+            }
+        }
+        if self.config.min_effective_rays > 0.0 {
+            let target = self.config.min_effective_rays;
+            for rays in [&mut pending.conv, &mut pending.div] {
+                clamp_to_effective_rays(rays, target);
+            }
+        }
+        if self.config.weight_truncation > 0.0 {
+            let factor = self.config.weight_truncation;
+            for rays in [&mut pending.conv, &mut pending.div] {
+                truncate_weights(rays, factor);
+            }
         }
         // Drop a mixture whose data would hold a negligible share: no fit, no pdf cost.
         let ray_mass = |rays: &[TrainingRay]| rays.iter().map(TrainingRay::mass).sum::<f64>();
@@ -1313,4 +1437,106 @@ fn unit_frame(aabb: Aabb3) -> (DVec3, f64) {
     let min = aabb.min.as_dvec3();
     let max = aabb.max.as_dvec3();
     ((min + max) * 0.5, (max - min).max_element() * 0.5)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn rays(weights: &[f32]) -> Vec<TrainingRay> {
+        weights
+            .iter()
+            .enumerate()
+            .map(|(i, &w)| TrainingRay {
+                origin: [0.0; 3],
+                direction: [1.0, 0.0, 0.0],
+                t0: 0.0,
+                t1: 1.0 + (i % 3) as f32,
+                weight: w,
+                pdf: 1.0,
+                expected: 0.0,
+            })
+            .collect()
+    }
+
+    fn effective(rays: &[TrainingRay]) -> f64 {
+        let s: f64 = rays.iter().map(TrainingRay::mass).sum();
+        let s2: f64 = rays.iter().map(|r| r.mass() * r.mass()).sum();
+        s * s / s2
+    }
+
+    fn total(rays: &[TrainingRay]) -> f64 {
+        rays.iter().map(TrainingRay::mass).sum()
+    }
+
+    #[test]
+    fn clamping_reaches_the_effective_ray_count_and_keeps_the_mass() {
+        let mut weights = vec![1.0f32; 99];
+        weights.extend([5e3, 2e3, 700.0]);
+        let mut r = rays(&weights);
+        let (before_mass, before_eff) = (total(&r), effective(&r));
+        assert!(before_eff < 5.0, "{before_eff}");
+        clamp_to_effective_rays(&mut r, 30.0);
+        let after = effective(&r);
+        assert!((after - 30.0).abs() < 1e-3, "{after}");
+        assert!((total(&r) / before_mass - 1.0).abs() < 1e-5);
+        // The light rays keep their relative weights; the heavy ones share one bound.
+        assert_eq!(r[0].weight, r[1].weight);
+        assert_eq!(r[99].weight, r[101].weight);
+        assert!(r[99].weight > r[0].weight);
+    }
+
+    #[test]
+    fn clamping_leaves_well_supported_or_single_rays_alone() {
+        let weights: Vec<f32> = (0..200).map(|i| 1.0 + (i % 7) as f32).collect();
+        let mut r = rays(&weights);
+        let before = r.clone();
+        clamp_to_effective_rays(&mut r, 30.0);
+        assert_eq!(r, before);
+        let mut one = rays(&[1e6]);
+        clamp_to_effective_rays(&mut one, 100.0);
+        assert_eq!(one, rays(&[1e6]));
+    }
+
+    #[test]
+    fn clamping_few_rays_equalises_their_weights() {
+        let mut r = rays(&[1e-3, 1.0, 1e4]);
+        let mass = total(&r);
+        clamp_to_effective_rays(&mut r, 100.0);
+        assert!(r.iter().all(|r| r.weight.is_finite() && r.weight > 0.0));
+        assert!((total(&r) / mass - 1.0).abs() < 1e-5);
+        // At most as many effective rays as there are; the bound falls to the lightest ray.
+        assert!(effective(&r) <= 3.0);
+        assert!((r[1].weight / r[2].weight - 1.0).abs() < 1e-4);
+    }
+
+    #[test]
+    fn tempering_takes_the_power_and_keeps_the_mass() {
+        let mut r = rays(&[1.0, 4.0, 16.0]);
+        let mass = total(&r);
+        temper_weights(&mut r, 0.5);
+        assert!((total(&r) / mass - 1.0).abs() < 1e-6);
+        assert!((r[1].weight / r[0].weight - 2.0).abs() < 1e-5);
+        assert!((r[2].weight / r[0].weight - 4.0).abs() < 1e-5);
+    }
+
+    #[test]
+    fn truncation_clamps_at_root_n_times_the_mean() {
+        let mut weights = vec![1.0f32; 99];
+        weights.push(1e4);
+        let mut r = rays(&weights);
+        let mass = total(&r);
+        // mean 100.99, √100 = 10: the bound is 1009.9, before the mass is restored.
+        truncate_weights(&mut r, 1.0);
+        assert!((total(&r) / mass - 1.0).abs() < 1e-5);
+        assert!(
+            (r[99].weight / r[0].weight - 1009.9).abs() < 0.1,
+            "{}",
+            r[99].weight / r[0].weight
+        );
+        let mut light = rays(&[1.0, 2.0, 3.0]);
+        let before = light.clone();
+        truncate_weights(&mut light, 1.0);
+        assert_eq!(light, before);
+    }
 }
