@@ -839,11 +839,7 @@ impl GmmGuide {
 /// Replaces every ray's weight c by s·c^β, with s chosen so that the rays' total mass Σ c·length is
 /// unchanged.
 fn temper_weights(rays: &mut [TrainingRay], beta: f64) {
-    let before: f64 = rays.iter().map(TrainingRay::mass).sum();
-    for r in rays.iter_mut() {
-        r.weight = (r.weight as f64).powf(beta) as f32;
-    }
-    restore_mass(rays, before);
+    reweight_keeping_mass(rays, |c| c.powf(beta));
 }
 
 /// Clamps the rays' weights at `factor`·√N·mean (Ionides' truncated importance sampling), then
@@ -858,20 +854,15 @@ fn truncate_weights(rays: &mut [TrainingRay], factor: f64) {
     if !(cap > 0.0 && cap.is_finite()) {
         return;
     }
-    rescale_clamped(rays, cap);
+    reweight_keeping_mass(rays, |c| c.min(cap));
 }
 
-/// Clamps every weight at `cap` and rescales them all so that the total mass is what it was.
-fn rescale_clamped(rays: &mut [TrainingRay], cap: f64) {
+/// Replaces every weight c by s·f(c), s chosen so that the rays' total mass is what it was.
+fn reweight_keeping_mass(rays: &mut [TrainingRay], f: impl Fn(f64) -> f64) {
     let before: f64 = rays.iter().map(TrainingRay::mass).sum();
     for r in rays.iter_mut() {
-        r.weight = (r.weight as f64).min(cap) as f32;
+        r.weight = f(r.weight as f64) as f32;
     }
-    restore_mass(rays, before);
-}
-
-/// Scales every weight so that the rays' total mass is `before` again.
-fn restore_mass(rays: &mut [TrainingRay], before: f64) {
     let after: f64 = rays.iter().map(TrainingRay::mass).sum();
     if after > 0.0 && before.is_finite() {
         let s = before / after;
@@ -888,15 +879,10 @@ fn restore_mass(rays: &mut [TrainingRay], before: f64) {
 fn clamp_to_effective_rays(rays: &mut [TrainingRay], target: f64) {
     let target = target.min(0.999 * rays.len() as f64);
     let effective = |cap: f64| {
-        let (s, s2) = rays.iter().fold((0.0f64, 0.0f64), |(s, s2), r| {
-            let m = (r.weight as f64).min(cap) * (r.t1 - r.t0) as f64;
-            (s + m, s2 + m * m)
-        });
-        if s2 > 0.0 {
-            s * s / s2
-        } else {
-            0.0
-        }
+        effective_count(
+            rays.iter()
+                .map(|r| (r.weight as f64).min(cap) * (r.t1 - r.t0) as f64),
+        )
     };
     let max_weight = rays.iter().map(|r| r.weight as f64).fold(0.0, f64::max);
     if !(max_weight > 0.0 && max_weight.is_finite()) || effective(max_weight) >= target {
@@ -915,7 +901,18 @@ fn clamp_to_effective_rays(rays: &mut [TrainingRay], target: f64) {
             hi = mid;
         }
     }
-    rescale_clamped(rays, lo.exp());
+    let cap = lo.exp();
+    reweight_keeping_mass(rays, |c| c.min(cap));
+}
+
+/// The effective number (Σm)²/Σm² of samples with masses m (0 if all are 0).
+fn effective_count(masses: impl Iterator<Item = f64>) -> f64 {
+    let (s, s2) = masses.fold((0.0f64, 0.0f64), |(s, s2), m| (s + m, s2 + m * m));
+    if s2 > 0.0 {
+        s * s / s2
+    } else {
+        0.0
+    }
 }
 
 /// The corners of the scene box in the unit frame (`center`, `scale`) the mixtures and rays live in.
@@ -1113,22 +1110,16 @@ impl GuidingDistribution for GmmGuide {
             }
             self.reflected.decay(decay);
         }
-        if self.config.weight_power != 1.0 {
-            let beta = self.config.weight_power;
-            for rays in [&mut pending.conv, &mut pending.div] {
-                temper_weights(rays, beta);
+        let c = &self.config;
+        for rays in [&mut pending.conv, &mut pending.div] {
+            if c.weight_power != 1.0 {
+                temper_weights(rays, c.weight_power);
             }
-        }
-        if self.config.min_effective_rays > 0.0 {
-            let target = self.config.min_effective_rays;
-            for rays in [&mut pending.conv, &mut pending.div] {
-                clamp_to_effective_rays(rays, target);
+            if c.min_effective_rays > 0.0 {
+                clamp_to_effective_rays(rays, c.min_effective_rays);
             }
-        }
-        if self.config.weight_truncation > 0.0 {
-            let factor = self.config.weight_truncation;
-            for rays in [&mut pending.conv, &mut pending.div] {
-                truncate_weights(rays, factor);
+            if c.weight_truncation > 0.0 {
+                truncate_weights(rays, c.weight_truncation);
             }
         }
         // Drop a mixture whose data would hold a negligible share: no fit, no pdf cost.
@@ -1185,11 +1176,7 @@ impl GuidingDistribution for GmmGuide {
 
         let fit_start = Instant::now();
         let effective = |rays: &[TrainingRay], previous: f64| {
-            let (sum, sum2) = rays
-                .iter()
-                .map(TrainingRay::mass)
-                .fold((0.0, 0.0), |(s, s2), m| (s + m, s2 + m * m));
-            decay * previous + if sum2 > 0.0 { sum * sum / sum2 } else { 0.0 }
+            decay * previous + effective_count(rays.iter().map(TrainingRay::mass))
         };
         self.effective_rays = [
             effective(&pending.conv, self.effective_rays[0]),
@@ -1460,9 +1447,7 @@ mod tests {
     }
 
     fn effective(rays: &[TrainingRay]) -> f64 {
-        let s: f64 = rays.iter().map(TrainingRay::mass).sum();
-        let s2: f64 = rays.iter().map(|r| r.mass() * r.mass()).sum();
-        s * s / s2
+        effective_count(rays.iter().map(TrainingRay::mass))
     }
 
     fn total(rays: &[TrainingRay]) -> f64 {
