@@ -650,6 +650,7 @@ fn run_args(
             save_guide: None,
             load_guide: None,
             guide_image,
+            save_iterations: None,
         },
     }
 }

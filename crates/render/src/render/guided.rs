@@ -208,6 +208,9 @@ pub struct GuidedOutput {
     /// The latest fallback check's decision (the one that gave up guiding, if any); `None` without a
     /// check.
     pub fallback: Option<Fallback>,
+    /// The images (two interleaved halves each) of the iterations that rendered, in order: what the
+    /// combination weighed, for studying other combinations.
+    pub iteration_images: Vec<IterationImage>,
 }
 
 /// The fallback decision of a render.
@@ -647,6 +650,7 @@ pub fn render_guided(
         },
         iterations: stats,
         fallback,
+        iteration_images: images,
     }
 }
 
