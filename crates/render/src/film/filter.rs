@@ -39,31 +39,6 @@ pub enum ReconstructionFilter {
     },
 }
 
-/// e^x of eight values (Cephes' `expf`: Cody–Waite reduction by ln 2 and a degree-5 polynomial,
-/// about 1 ulp; arguments below −87 give 0), written lane by lane so that it compiles to SIMD.
-#[inline]
-fn exp8(x: [f32; 8]) -> [f32; 8] {
-    const LOG2E: f32 = std::f32::consts::LOG2_E;
-    const C1: f32 = 0.693_359_4;
-    const C2: f32 = -2.121_944_4e-4;
-    let mut out = [0.0f32; 8];
-    for (o, &x) in out.iter_mut().zip(&x) {
-        let xc = x.clamp(-87.0, 88.0);
-        let n = (xc * LOG2E).round();
-        let r = xc - n * C1 - n * C2;
-        let mut p = 1.987_569_1e-4f32;
-        p = p * r + 1.398_199_9e-3;
-        p = p * r + 8.333_452e-3;
-        p = p * r + 4.166_579_6e-2;
-        p = p * r + 0.166_666_65;
-        p = p * r + 0.5;
-        let e = p * r * r + r + 1.0;
-        let scaled = e * f32::from_bits(((n as i32 + 127) as u32) << 23);
-        *o = if x < -87.0 { 0.0 } else { scaled };
-    }
-    out
-}
-
 impl Default for ReconstructionFilter {
     /// Mitsuba's default: a Gaussian with σ = 0.5 px.
     fn default() -> Self {
@@ -155,18 +130,9 @@ impl ReconstructionFilter {
             let alpha = -1.0 / (2.0 * stddev * stddev);
             let r = 4.0 * stddev;
             let bias = (alpha * r * r).exp();
-            // Eight weights at a time through a polynomial exp the compiler vectorises: every sample
-            // needs two rows, and ten scalar `expf` calls were a tenth of a render of the caustic.
-            for (c, chunk) in out.chunks_mut(8).enumerate() {
-                let mut arg = [0.0f32; 8];
-                for (k, a) in arg.iter_mut().enumerate() {
-                    let x = x0 + (8 * c + k) as f32;
-                    *a = alpha * x * x;
-                }
-                let e = exp8(arg);
-                for (w, e) in chunk.iter_mut().zip(e) {
-                    *w = (e - bias).max(0.0);
-                }
+            for (i, w) in out.iter_mut().enumerate() {
+                let x = x0 + i as f32;
+                *w = ((alpha * x * x).exp() - bias).max(0.0);
             }
         } else {
             for (i, w) in out.iter_mut().enumerate() {
@@ -255,30 +221,5 @@ pub fn filter_from_desc(rfilter: Option<&ObjectDesc>) -> SceneResult<Reconstruct
             "unsupported reconstruction filter '{other}' (supported: box, tent, gaussian, mitchell, \
              catmullrom, lanczos)"
         ))),
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn exp8_matches_the_exponential() {
-        // The filter's arguments lie in [-2·64², 0]; check that range and a little beyond.
-        let mut worst = 0.0f64;
-        for i in 0..100_000 {
-            let x0 = -90.0 + 95.0 * i as f32 / 100_000.0;
-            let xs: [f32; 8] = std::array::from_fn(|k| x0 + k as f32 * 1e-4);
-            for (x, e) in xs.iter().zip(exp8(xs)) {
-                let exact = (*x as f64).exp();
-                if *x < -87.0 {
-                    assert_eq!(e, 0.0);
-                } else {
-                    worst = worst.max(((e as f64 - exact) / exact).abs());
-                }
-            }
-        }
-        assert!(worst < 3e-7, "largest relative error {worst:e}");
-        assert_eq!(exp8([-1e4; 8]), [0.0; 8]);
     }
 }
