@@ -168,6 +168,8 @@ impl Bitmap {
     fn texel(&self, x: i64, y: i64) -> Rgb {
         let fold = |i: i64, n: i64| -> usize {
             (match self.wrap {
+                // Most lookups are inside the image: skip the (slow) 64-bit division then.
+                WrapMode::Repeat if (0..n).contains(&i) => i,
                 WrapMode::Repeat => i.rem_euclid(n),
                 WrapMode::Clamp => i.clamp(0, n - 1),
                 WrapMode::Mirror => {
