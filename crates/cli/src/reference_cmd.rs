@@ -104,7 +104,7 @@ pub fn run(a: ReferenceArgs) -> Result<()> {
     };
     let guide = match &a.load_guide {
         Some(p) => {
-            Some(load_guide(&guide_bytes).map_err(|e| anyhow::anyhow!("{}: {e}", p.display()))?)
+            Some(load_guide(&guide_bytes, &focal_render::guide::GuideParams::default()).map_err(|e| anyhow::anyhow!("{}: {e}", p.display()))?)
         }
         None => None,
     };

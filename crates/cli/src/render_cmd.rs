@@ -111,8 +111,8 @@ pub struct GuidingArgs {
     /// Most Gaussian components per mixture (converging and diverging each).
     #[arg(long)]
     pub gmm_k_max: Option<usize>,
-    /// A GMM guide parameter, `name=value` (repeatable; the fields of the guide's config, e.g.
-    /// `max_points=131072`, `em_iterations=2`, `decay=0.5`).
+    /// A GMM guide parameter, `name=value` (repeatable; the fields of the guide's config by path, e.g.
+    /// `points.max=131072`, `em.iterations=2`, `schedule.decay=0.5`; the earlier flat names still work).
     #[arg(long = "gmm", value_name = "NAME=VALUE")]
     pub gmm_params: Vec<String>,
     /// Write the trained guide to this file after training.
@@ -199,12 +199,13 @@ pub(crate) fn guided_spec(scene: &IntegratorSpec, g: &GuidingArgs) -> Result<Opt
         spec.params.octree.threshold = t;
     }
     if let Some(k) = g.gmm_k_max {
-        spec.params.gmm.k_max = k;
-        spec.params.gmm.k_init = spec.params.gmm.k_init.min(k);
-        spec.params.gmm.k_min = spec.params.gmm.k_min.min(k);
+        let em = &mut spec.params.gmm.em;
+        em.k_max = k;
+        em.k_init = em.k_init.min(k);
+        em.k_min = em.k_min.min(k);
     }
     for p in &g.gmm_params {
-        spec.params.gmm = with_param(&spec.params.gmm, p).context("--gmm")?;
+        spec.params.gmm = gmm_param(&spec.params.gmm, p).context("--gmm")?;
     }
     if let Some(f) = g.train_fraction {
         if !(0.0..=1.0).contains(&f) {
@@ -310,7 +311,9 @@ pub fn run(a: RenderArgs) -> Result<()> {
                 Some(p) => {
                     let bytes =
                         std::fs::read(p).with_context(|| format!("reading {}", p.display()))?;
-                    Some(load_guide(&bytes).map_err(|e| anyhow::anyhow!("{}: {e}", p.display()))?)
+                    let guide = load_guide(&bytes, &spec.params)
+                        .map_err(|e| anyhow::anyhow!("{}: {e}", p.display()))?;
+                    Some(guide)
                 }
                 None => make_guide(spec.method, &loaded.scene.bounds, &spec.params)
                     .map_err(|e| anyhow::anyhow!(e))?,
@@ -347,7 +350,7 @@ pub fn run(a: RenderArgs) -> Result<()> {
                 &loaded.film,
                 guide
                     .as_mut()
-                    .map(|g| g.as_mut() as &mut dyn focal_render::guiding::GuidingDistribution),
+                    .map(|g| g.as_mut() as &mut dyn focal_render::guiding::GuidingField),
                 &gsettings,
                 &progress,
             );
@@ -478,19 +481,52 @@ where
         .split_once('=')
         .with_context(|| format!("expected name=value, got `{assignment}`"))?;
     let mut json = serde_json::to_value(config)?;
-    let fields = json
+    // A dotted name walks into nested groups (`em.iterations`).
+    let mut fields = json
         .as_object_mut()
         .context("the config is not a set of named fields")?;
-    let Some(old) = fields.get(name) else {
-        let names: Vec<&str> = fields.keys().map(String::as_str).collect();
+    let mut path = name.split('.').peekable();
+    let mut prefix = String::new();
+    let leaf = loop {
+        let part = path.next().unwrap_or_default();
+        if path.peek().is_none() {
+            break part;
+        }
+        let known: Vec<String> = fields.keys().map(|k| format!("{prefix}{k}")).collect();
+        fields = match fields.get_mut(part).and_then(|v| v.as_object_mut()) {
+            Some(group) => group,
+            None => bail!("unknown parameter group `{prefix}{part}` (known: {})", known.join(", ")),
+        };
+        prefix = format!("{prefix}{part}.");
+    };
+    let Some(old) = fields.get(leaf) else {
+        let names: Vec<String> = fields.keys().map(|k| format!("{prefix}{k}")).collect();
         bail!("unknown parameter `{name}` (known: {})", names.join(", "));
     };
     let parsed: serde_json::Value = serde_json::from_str(value)
         .or_else(|_| serde_json::from_str(&format!("\"{value}\"")))
         .with_context(|| format!("bad value `{value}` for `{name}`"))?;
-    if std::mem::discriminant(old) != std::mem::discriminant(&parsed) {
+    // An optional value (null by default) takes a number or null.
+    if !old.is_null() && std::mem::discriminant(old) != std::mem::discriminant(&parsed) {
         bail!("`{name}` takes a value like {old}, got `{value}`");
     }
-    fields.insert(name.to_string(), parsed);
+    fields.insert(leaf.to_string(), parsed);
     serde_json::from_value(json).with_context(|| format!("bad value `{value}` for `{name}`"))
+}
+
+/// A GMM guide parameter `name=value`: the config's field path (`em.iterations=2`), or an earlier
+/// flat name (`em_iterations=2`); a removed experiment's parameter is refused with the reason.
+fn gmm_param(
+    config: &focal_render::guiding::GmmConfig,
+    assignment: &str,
+) -> Result<focal_render::guiding::GmmConfig> {
+    use focal_render::guiding::GmmConfig;
+    let (name, value) = assignment
+        .split_once('=')
+        .with_context(|| format!("expected name=value, got `{assignment}`"))?;
+    if let Some(why) = GmmConfig::removed(name) {
+        bail!("{why}");
+    }
+    let name = GmmConfig::renamed(name).unwrap_or(name);
+    with_param(config, &format!("{name}={value}"))
 }

@@ -8,7 +8,7 @@ mod gmm_common;
 use focal_guiding::gmm::special::{exp_fast, half_line_h, mills_ratio, norm_cdf};
 use focal_guiding::gmm::special32::{exp_f32, half_line_h_f32, mills_ratio_f32, norm_cdf_f32};
 use focal_guiding::gmm::{Gaussian3, GmmConfig, GmmGuide, Mixture, Sym3};
-use focal_guiding::{Aabb3, GuidingDistribution};
+use focal_guiding::{Aabb3, GuidingField};
 use glam::{DVec3, Vec3};
 use gmm_common::{random_mixture, Rng};
 
@@ -72,13 +72,13 @@ fn worst_deviation(
 ) -> f64 {
     let mut pairs = Vec::new();
     for d in dirs {
-        pairs.push((g.pdf(x, normal, *d) as f64, g.pdf_f64(x, normal, *d)));
+        pairs.push((g.pdf_at(x, normal, *d) as f64, g.pdf_f64(x, normal, *d)));
     }
     // Directions the guide itself samples: near its peaks, where accuracy matters most.
     for _ in 0..400 {
         let u = [rng.f32(), rng.f32(), rng.f32()];
-        if let Some(s) = g.sample(x, normal, u) {
-            assert_eq!(s.pdf.to_bits(), g.pdf(x, normal, s.direction).to_bits());
+        if let Some(s) = g.sample_at(x, normal, u) {
+            assert_eq!(s.pdf.to_bits(), g.pdf_at(x, normal, s.direction).to_bits());
             pairs.push((s.pdf as f64, g.pdf_f64(x, normal, s.direction)));
         }
     }
@@ -159,6 +159,6 @@ fn the_f32_kernel_handles_tiny_distant_components() {
     assert!(worst < 2e-2, "{worst:e}");
     // Every direction sampled towards the focus gets a finite, positive pdf near the reference.
     let towards = (Vec3::ONE - x).normalize();
-    let p = g.pdf(x, None, towards) as f64;
+    let p = g.pdf_at(x, None, towards) as f64;
     assert!(rel_err(p, g.pdf_f64(x, None, towards)) < 2e-2);
 }

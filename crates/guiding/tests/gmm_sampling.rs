@@ -1,19 +1,19 @@
 //! The GMM guide's sampling and pdf agree: the pdf integrates to 1 (sphere, or hemisphere when
 //! truncated), the truncated pdf is the full pdf over the hemisphere mass, and sampled directions pass
-//! chi-square tests against the pdf; likewise with component weights that depend on the shading point
-//! (origin models).
+//! chi-square tests against the pdf; a reused sampling distribution gives the same bits as a fresh one.
 
 mod gmm_common;
 
 use focal_guiding::gmm::{GmmConfig, GmmGuide, Mixture};
-use focal_guiding::{Aabb3, GuidingDistribution};
+use focal_guiding::octree::{FocalOctreeGuide, OctreeGuideConfig};
+use focal_guiding::{Aabb3, GuidingField, SamplingDistribution};
 use focal_testkit::{chi2_sphere_test, sphere_integral, Chi2Options};
 use glam::{DVec3, Vec3};
-use gmm_common::{oracle_weights, random_mixture, with_random_origins, Rng};
+use gmm_common::{random_mixture, Rng};
 use statrs::distribution::{ContinuousCDF, Normal};
 
 /// Chi-square tests in this file (Šidák family size).
-const CHI2_TESTS: usize = 9;
+const CHI2_TESTS: usize = 7;
 
 fn world_box() -> Aabb3 {
     Aabb3 {
@@ -37,7 +37,7 @@ fn independent_direction(
 ) -> DVec3 {
     let diverging = rng.f64() < p_div;
     let m = if diverging { div } else { conv };
-    let weights = oracle_weights(m, x);
+    let weights = m.weights();
     let mut u = rng.f64();
     let mut k = 0;
     while k + 1 < m.len() && u >= weights[k] {
@@ -58,12 +58,11 @@ fn independent_direction(
     }
 }
 
-/// Z = Σ (1 − p_div) c_k Φ(n·(μ_k − x)/σₙ) + p_div c_k Φ(−n·(μ_k − x)/σₙ), computed with statrs (c_k the
-/// component weights at x, [`oracle_weights`]).
+/// Z = Σ (1 − p_div) π_k Φ(n·(μ_k − x)/σₙ) + p_div π_k Φ(−n·(μ_k − x)/σₙ), computed with statrs.
 fn hemisphere_mass(conv: &Mixture, div: &Mixture, p_div: f64, x: DVec3, n: DVec3) -> f64 {
     let std = Normal::new(0.0, 1.0).unwrap();
     let side = |m: &Mixture, sign: f64| -> f64 {
-        oracle_weights(m, x)
+        m.weights()
             .iter()
             .zip(m.components())
             .map(|(w, g)| {
@@ -110,9 +109,9 @@ fn untrained_guide_samples_nothing() {
     let g = GmmGuide::new(world_box(), GmmConfig::default()).unwrap();
     assert_eq!(g.name(), "gmm");
     assert!(!g.is_trained());
-    assert_eq!(g.sample(Vec3::ZERO, None, [0.3, 0.4, 0.5]), None);
-    assert_eq!(g.sample(Vec3::ZERO, Some(Vec3::Z), [0.3, 0.4, 0.5]), None);
-    assert_eq!(g.pdf(Vec3::ZERO, None, Vec3::X), 0.0);
+    assert_eq!(g.sample_at(Vec3::ZERO, None, [0.3, 0.4, 0.5]), None);
+    assert_eq!(g.sample_at(Vec3::ZERO, Some(Vec3::Z), [0.3, 0.4, 0.5]), None);
+    assert_eq!(g.pdf_at(Vec3::ZERO, None, Vec3::X), 0.0);
 }
 
 #[test]
@@ -127,14 +126,6 @@ fn pdf_integrates_to_one_over_the_sphere() {
             0.6,
         );
         let div = random_mixture(&mut rng, 1 + case % 3, DVec3::new(-1.0, 0.5, 0.5), 0.1, 0.8);
-        let (conv, div) = if case % 2 == 1 {
-            (
-                with_random_origins(&mut rng, conv, DVec3::ZERO, 0.2),
-                with_random_origins(&mut rng, div, DVec3::ZERO, 0.0),
-            )
-        } else {
-            (conv, div)
-        };
         let p_div = [0.0, 0.3, 0.7][case % 3];
         let g = guide(&conv, &div, p_div);
         // Inside the mixtures, next to them and far away.
@@ -168,14 +159,6 @@ fn truncated_pdf_is_the_full_pdf_over_the_hemisphere_mass_and_integrates_to_one(
             0.1,
             0.5,
         );
-        let (conv, div) = if case % 2 == 0 {
-            (
-                with_random_origins(&mut rng, conv, DVec3::ZERO, 0.3),
-                with_random_origins(&mut rng, div, DVec3::ZERO, 0.1),
-            )
-        } else {
-            (conv, div)
-        };
         let p_div = [0.0, 0.4, 0.8][case % 3];
         let g = guide(&conv, &div, p_div);
         // The guide sees f32 inputs: give the oracle exactly the same point and normal.
@@ -221,8 +204,8 @@ fn chi2(g: &GmmGuide, x: Vec3, normal: Option<Vec3>, seed: u64) {
     let mut mismatched = 0u32;
     let r = chi2_sphere_test(
         |u2, u1| {
-            let s = g.sample(x, normal, [u1, u2.x, u2.y])?;
-            if s.pdf.to_bits() != g.pdf(x, normal, s.direction).to_bits() {
+            let s = g.sample_at(x, normal, [u1, u2.x, u2.y])?;
+            if s.pdf.to_bits() != g.pdf_at(x, normal, s.direction).to_bits() {
                 mismatched += 1;
             }
             if let Some(n) = normal {
@@ -230,7 +213,7 @@ fn chi2(g: &GmmGuide, x: Vec3, normal: Option<Vec3>, seed: u64) {
             }
             Some((s.direction, 1.0))
         },
-        |d| g.pdf(x, normal, d) as f64,
+        |d| g.pdf_at(x, normal, d) as f64,
         opts,
     );
     assert_eq!(mismatched, 0, "sample() pdf differs from pdf()");
@@ -312,77 +295,6 @@ fn chi_square_elongated_components_far_away() {
 }
 
 #[test]
-fn chi_square_full_sphere_with_origin_weights() {
-    let mut rng = Rng(32);
-    let conv = random_mixture(&mut rng, 4, DVec3::new(1.0, 0.5, 0.0), 0.15, 0.5);
-    let conv = with_random_origins(&mut rng, conv, DVec3::ZERO, 0.2);
-    let div = random_mixture(&mut rng, 2, DVec3::new(-1.0, -0.5, 0.3), 0.15, 0.5);
-    let div = with_random_origins(&mut rng, div, DVec3::ZERO, 0.0);
-    let g = guide(&conv, &div, 0.35);
-    chi2(&g, Vec3::new(0.2, 0.1, -0.2), None, 8);
-}
-
-#[test]
-fn chi_square_truncated_with_origin_weights() {
-    let mut rng = Rng(33);
-    let conv = random_mixture(&mut rng, 4, DVec3::new(0.5, 0.5, 0.5), 0.2, 0.5);
-    let conv = with_random_origins(&mut rng, conv, DVec3::ZERO, 0.25);
-    let div = random_mixture(&mut rng, 3, DVec3::new(0.3, -0.6, 0.2), 0.2, 0.5);
-    let div = with_random_origins(&mut rng, div, DVec3::ZERO, 0.25);
-    let g = guide(&conv, &div, 0.5);
-    chi2(
-        &g,
-        Vec3::new(0.1, 0.0, -0.1),
-        Some(Vec3::new(0.0, 0.6, 0.8)),
-        9,
-    );
-}
-
-#[test]
-fn origin_weights_follow_the_shading_point() {
-    // Two foci whose rays start in two separate regions: from each region the guide aims mostly at
-    // its own focus, and the weights at any point sum to 1 and keep β of the global ones.
-    let focus = [DVec3::new(0.0, 1.0, 0.0), DVec3::new(0.0, -1.0, 0.0)];
-    let region = [DVec3::new(-2.0, 0.0, 0.0), DVec3::new(2.0, 0.0, 0.0)];
-    let small = |c: DVec3, s: f64| {
-        focal_guiding::gmm::Gaussian3::new(c, focal_guiding::gmm::Sym3::scaled_identity(s * s))
-            .unwrap()
-    };
-    let conv = Mixture::new(&[0.5, 0.5], focus.iter().map(|&f| small(f, 0.05)).collect())
-        .unwrap()
-        .with_origins(
-            focal_guiding::gmm::OriginModel::new(
-                region.iter().map(|&r| small(r, 0.5)).collect(),
-                &[1.0, 1.0],
-                0.2,
-            )
-            .unwrap(),
-        )
-        .unwrap();
-    let g = guide(&conv, &Mixture::empty(), 0.0);
-    for (i, &x) in region.iter().enumerate() {
-        let w = conv.weights_at(x);
-        assert!((w.iter().sum::<f64>() - 1.0).abs() < 1e-12, "{w:?}");
-        assert!(w[i] > 0.89 && w[1 - i] >= 0.1 - 1e-12, "region {i}: {w:?}");
-        let oracle = oracle_weights(&conv, x);
-        for (a, b) in w.iter().zip(&oracle) {
-            assert!((a - b).abs() < 1e-12, "{w:?} vs {oracle:?}");
-        }
-        // The pdf towards the own focus is (0.9 / 0.1) = 9 times that towards the other one, up to
-        // the foci's different distances and angles (symmetric here).
-        let own = g.pdf(x.as_vec3(), None, (focus[i] - x).as_vec3());
-        let other = g.pdf(x.as_vec3(), None, (focus[1 - i] - x).as_vec3());
-        assert!(own > 8.0 * other, "region {i}: {own} vs {other}");
-    }
-    // Without origins both foci weigh alike from both regions.
-    let plain = guide(&conv.clone().without_origins(), &Mixture::empty(), 0.0);
-    let x = region[0].as_vec3();
-    let a = plain.pdf(x, None, (focus[0] - region[0]).as_vec3());
-    let b = plain.pdf(x, None, (focus[1] - region[0]).as_vec3());
-    assert!((a / b - 1.0).abs() < 1e-3, "{a} vs {b}");
-}
-
-#[test]
 fn hemisphere_without_guide_mass_is_empty() {
     // The whole mixture far below the plane: no sample, pdf 0, consistently.
     let mut rng = Rng(27);
@@ -390,10 +302,10 @@ fn hemisphere_without_guide_mass_is_empty() {
     let g = guide(&conv, &Mixture::empty(), 0.0);
     for i in 0..100 {
         let u = [i as f32 / 100.0, 0.5, 0.25];
-        assert_eq!(g.sample(Vec3::ZERO, Some(Vec3::Z), u), None);
+        assert_eq!(g.sample_at(Vec3::ZERO, Some(Vec3::Z), u), None);
     }
-    assert_eq!(g.pdf(Vec3::ZERO, Some(Vec3::Z), Vec3::Z), 0.0);
-    assert!(g.pdf(Vec3::ZERO, None, -Vec3::Z) > 0.0);
+    assert_eq!(g.pdf_at(Vec3::ZERO, Some(Vec3::Z), Vec3::Z), 0.0);
+    assert!(g.pdf_at(Vec3::ZERO, None, -Vec3::Z) > 0.0);
 }
 
 #[test]
@@ -407,40 +319,46 @@ fn chi_square_detects_a_sampler_that_disagrees_with_its_pdf() {
     let x = Vec3::new(0.0, 0.1, -0.2);
     let r = chi2_sphere_test(
         |u2, u1| {
-            let s = sampler.sample(x, None, [u1, u2.x, u2.y])?;
+            let s = sampler.sample_at(x, None, [u1, u2.x, u2.y])?;
             Some((s.direction, 1.0))
         },
-        |d| claimed.pdf(x, None, d) as f64,
+        |d| claimed.pdf_at(x, None, d) as f64,
         Chi2Options::default(),
     );
     assert!(!r.passed, "{r}");
 }
 
 #[test]
-fn prepared_vertex_queries_equal_the_plain_ones_bit_for_bit() {
-    // One `prepare` per shading point serves NEE, sampling and the BSDF direction's pdf: it must not
-    // change a single bit of what `sample` and `pdf` return, with and without a hemisphere hint, and a
-    // reused vertex must forget the previous point.
+fn a_reused_distribution_gives_what_a_fresh_one_does_bit_for_bit() {
+    // One distribution per thread serves NEE, sampling and the BSDF direction's pdf at every vertex:
+    // it must not change a single bit of what a fresh one gives, with and without a hemisphere hint,
+    // and it must forget the previous point, also one of another guide.
     let mut rng = Rng(31);
     let conv = random_mixture(&mut rng, 5, DVec3::ZERO, 0.05, 0.6);
-    let conv = with_random_origins(&mut rng, conv, DVec3::ZERO, 0.25);
     let div = random_mixture(&mut rng, 3, DVec3::new(1.0, 0.5, 0.0), 0.1, 0.4);
     let g = guide(&conv, &div, 0.3);
-    let mut vertex = focal_guiding::GuideVertex::default();
+    let octree = FocalOctreeGuide::new(world_box(), OctreeGuideConfig::default()).unwrap();
+    let mut distribution = SamplingDistribution::default();
     for i in 0..200 {
         let x = rng.in_box(DVec3::splat(-2.0), DVec3::splat(2.0)).as_vec3();
         let normal = (i % 3 != 0).then(|| rng.sphere().as_vec3());
-        g.prepare(x, normal, &mut vertex);
+        if i % 7 == 0 {
+            octree.init(&mut distribution, x, normal);
+            assert!(matches!(distribution, SamplingDistribution::Octree(_)));
+            // Another guide's distribution is none of the mixture's.
+            assert_eq!(g.pdf(&distribution, Vec3::Z), 0.0);
+        }
+        g.init(&mut distribution, x, normal);
         let u = [rng.f32(), rng.f32(), rng.f32()];
-        let plain = g.sample(x, normal, u);
-        assert_eq!(g.sample_at(&vertex, u), plain);
+        let plain = g.sample_at(x, normal, u);
+        assert_eq!(g.sample(&distribution, u), plain);
         for d in [
             rng.sphere().as_vec3(),
             plain.map_or(Vec3::Z, |s| s.direction),
         ] {
             assert_eq!(
-                g.pdf_at(&vertex, d).to_bits(),
-                g.pdf(x, normal, d).to_bits()
+                g.pdf(&distribution, d).to_bits(),
+                g.pdf_at(x, normal, d).to_bits()
             );
         }
     }

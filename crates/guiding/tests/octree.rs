@@ -6,7 +6,7 @@ use focal_guiding::octree::{
     lattice_plane, substitute_zero_components, FocalOctreeGuide, FocalTree, OctreeGuideConfig,
     SplatStrategy, TreeConfig,
 };
-use focal_guiding::{Aabb3, GuidingDistribution, TrainingSegment, UpdateContext};
+use focal_guiding::{Aabb3, GuidingField, TrainingSegment, UpdateContext};
 use glam::{DVec3, UVec3, Vec3};
 
 /// A small deterministic generator (SplitMix64) so the tests need no extra dependency.
@@ -79,7 +79,6 @@ fn focal_segments(rng: &mut Rng, n: usize) -> Vec<TrainingSegment> {
                 emitted: 0.0,
                 emitter_pdf: 0.0,
                 pixel_weight: 1.0,
-                throughput: 0.0,
             }
         })
         .collect()
@@ -108,7 +107,6 @@ fn virtual_image_segments(rng: &mut Rng, n: usize) -> Vec<TrainingSegment> {
                 emitted: 0.0,
                 emitter_pdf: 0.0,
                 pixel_weight: 1.0,
-                throughput: 0.0,
             }
         })
         .collect()
@@ -285,16 +283,16 @@ fn sphere_integral(guide: &FocalOctreeGuide, x: Vec3, rng: &mut Rng) -> f64 {
             rng.sphere().as_vec3()
         } else {
             let s = guide
-                .sample(x, None, [rng.f32(), rng.f32(), rng.f32()])
+                .sample_at(x, None, [rng.f32(), rng.f32(), rng.f32()])
                 .expect("the guide samples");
             assert_eq!(
                 s.pdf,
-                guide.pdf(x, None, s.direction),
+                guide.pdf_at(x, None, s.direction),
                 "sample pdf must equal pdf()"
             );
             s.direction
         };
-        let p = guide.pdf(x, None, d) as f64;
+        let p = guide.pdf_at(x, None, d) as f64;
         sum += p / (0.5 * uniform + 0.5 * p);
     }
     sum / n as f64
@@ -464,7 +462,7 @@ fn sampled_directions_follow_the_binned_pdf() {
     let mut observed = vec![0.0; expected.len()];
     for _ in 0..n {
         let s = guide
-            .sample(x, None, [rng.f32(), rng.f32(), rng.f32()])
+            .sample_at(x, None, [rng.f32(), rng.f32(), rng.f32()])
             .unwrap();
         observed[bin(s.direction)] += 1.0;
     }
@@ -643,8 +641,7 @@ fn updates_are_deterministic_for_any_thread_count() {
                 // Batches of uneven size, as render passes deliver them.
                 let (a, b) = segments.split_at(7_000);
                 guide.record(a);
-                guide.record(b);
-                guide.update(&context(i, 3, threads));
+                guide.update_with(b, &context(i, 3, threads));
             }
             guide.save()
         })
@@ -666,11 +663,11 @@ fn save_load_round_trip_reproduces_the_model() {
         let x = rng.in_box(DVec3::splat(-2.0), DVec3::splat(2.0)).as_vec3();
         let d = rng.sphere().as_vec3();
         assert_eq!(
-            loaded.pdf(x, None, d).to_bits(),
-            guide.pdf(x, None, d).to_bits()
+            loaded.pdf_at(x, None, d).to_bits(),
+            guide.pdf_at(x, None, d).to_bits()
         );
         let u = [rng.f32(), rng.f32(), rng.f32()];
-        assert_eq!(loaded.sample(x, None, u), guide.sample(x, None, u));
+        assert_eq!(loaded.sample_at(x, None, u), guide.sample_at(x, None, u));
     }
     assert!(FocalOctreeGuide::load(&bytes[..bytes.len() / 2]).is_err());
     assert!(FocalOctreeGuide::load(b"not a snapshot").is_err());
@@ -715,7 +712,7 @@ fn invalid_boxes_and_configs_are_rejected_and_flat_boxes_padded() {
     let guide = FocalOctreeGuide::new(flat, config).unwrap();
     assert!(guide.aabb().max.y > guide.aabb().min.y);
     let s = guide
-        .sample(Vec3::new(0.5, 0.0, 0.5), None, [0.3, 0.6, 0.2])
+        .sample_at(Vec3::new(0.5, 0.0, 0.5), None, [0.3, 0.6, 0.2])
         .unwrap();
     assert!(s.pdf.is_finite() && s.pdf > 0.0);
 }

@@ -66,7 +66,6 @@ fn segment(u: f64, alpha0: f64) -> TrainingSegment {
         emitted: emitted as f32,
         emitter_pdf: pn as f32,
         pixel_weight: 1.0,
-        throughput: 0.0,
     }
 }
 
@@ -186,7 +185,6 @@ fn impossible_fractions_and_invalid_segments() {
         },
         TrainingSegment {
             pixel_weight: f32::NAN,
-            throughput: 0.0,
             ..s
         },
     ] {

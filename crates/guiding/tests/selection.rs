@@ -4,11 +4,20 @@
 mod gmm_common;
 
 use focal_guiding::{
-    Aabb3, GmmConfig, GmmGuide, GuidingDistribution, SelectionConfig, SelectionGrid, SelectionRule,
-    TrainingSegment, UpdateContext,
+    Aabb3, GmmConfig, GmmGuide, GuidingField, SelectionConfig, SelectionGrid, SelectionLayer,
+    SelectionLayerConfig, SelectionRule, SelectionSamples, SelectionSummary, TrainingSegment,
+    UpdateContext,
 };
 use glam::Vec3;
 use gmm_common::Rng;
+
+/// Updates `grid` from the storage `samples` and gives it a fresh one for the next iteration.
+fn update(grid: &mut SelectionGrid, samples: &mut SelectionSamples) -> SelectionSummary {
+    let full = std::mem::replace(samples, grid.new_samples());
+    let summary = grid.update(full);
+    *samples = grid.new_samples();
+    summary
+}
 
 fn unit_box() -> Aabb3 {
     Aabb3 {
@@ -54,7 +63,6 @@ fn segments(
                 emitted: 0.0,
                 emitter_pdf: 0.0,
                 pixel_weight: 1.0,
-                throughput: 0.0,
             })
         })
         .collect()
@@ -84,6 +92,7 @@ fn exact_best(w: f64) -> f32 {
 #[test]
 fn chooses_the_fraction_with_the_least_second_moment_per_region() {
     let mut grid = SelectionGrid::new(unit_box(), SelectionConfig::default()).unwrap();
+    let mut samples = grid.new_samples();
     assert!(
         grid.fraction_at(Vec3::splat(0.5), false).is_none(),
         "untrained"
@@ -99,9 +108,9 @@ fn chooses_the_fraction_with_the_least_second_moment_per_region() {
     ];
     for (origin, w) in cases {
         let f = move |u: f64| w * if u < 0.5 { 2.0 } else { 0.0 } + (1.0 - w);
-        grid.record(&segments(origin, 40_000, 0.5, f, &mut rng));
+        grid.record(&mut samples, &segments(origin, 40_000, 0.5, f, &mut rng));
     }
-    let summary = grid.update();
+    let summary = update(&mut grid, &mut samples);
     assert_eq!(summary.coarse_share, 0.0, "every region has enough data");
     for (origin, w) in cases {
         let chosen = grid.fraction_at(origin, false).unwrap();
@@ -127,6 +136,7 @@ fn the_share_rule_chooses_the_guide_covered_share_of_the_contribution() {
     };
     for alpha0 in [0.25, 0.75] {
         let mut grid = SelectionGrid::new(unit_box(), config).unwrap();
+    let mut samples = grid.new_samples();
         let mut rng = Rng(5);
         let cases = [
             (Vec3::new(0.05, 0.05, 0.05), 1.0, 0.6),
@@ -136,9 +146,9 @@ fn the_share_rule_chooses_the_guide_covered_share_of_the_contribution() {
         ];
         for (origin, w, _) in cases {
             let f = move |u: f64| w * if u < 0.5 { 2.0 } else { 0.0 } + (1.0 - w);
-            grid.record(&segments(origin, 40_000, alpha0, f, &mut rng));
+            grid.record(&mut samples, &segments(origin, 40_000, alpha0, f, &mut rng));
         }
-        grid.update();
+        update(&mut grid, &mut samples);
         for (origin, w, expected) in cases {
             let chosen = grid.fraction_at(origin, false).unwrap() as f64;
             eprintln!("alpha0 {alpha0}, w = {w}: chose {chosen:.4}, expected {expected:.4}");
@@ -151,28 +161,29 @@ fn the_share_rule_chooses_the_guide_covered_share_of_the_contribution() {
 fn sparse_cells_use_the_coarser_levels_choice_and_unguided_segments_teach_nothing() {
     let config = SelectionConfig::default();
     let mut grid = SelectionGrid::new(unit_box(), config).unwrap();
+    let mut samples = grid.new_samples();
     let mut rng = Rng(11);
     let guided_only = |u: f64| if u < 0.5 { 2.0 } else { 0.0 };
     // Unguided segments (fraction 0) carry no guide pdf: the grid stays untrained.
-    grid.record(&segments(
+    grid.record(&mut samples, &segments(
         Vec3::splat(0.2),
         1000,
         0.0,
         guided_only,
         &mut rng,
     ));
-    grid.update();
+    update(&mut grid, &mut samples);
     assert!(!grid.is_trained());
     // Many segments in one finest cell, a few in a neighbour of the same level-1 octant.
-    grid.record(&segments(
+    grid.record(&mut samples, &segments(
         Vec3::splat(0.02),
         5000,
         0.5,
         guided_only,
         &mut rng,
     ));
-    grid.record(&segments(Vec3::splat(0.2), 10, 0.5, |_| 1.0, &mut rng));
-    let summary = grid.update();
+    grid.record(&mut samples, &segments(Vec3::splat(0.2), 10, 0.5, |_| 1.0, &mut rng));
+    let summary = update(&mut grid, &mut samples);
     assert!(summary.coarse_share > 0.0);
     assert_eq!(grid.fraction_at(Vec3::splat(0.02), false), Some(0.9));
     // The sparse cell's own data would say "skip", but 10 segments are too few: it inherits 0.9.
@@ -185,6 +196,7 @@ fn sparse_cells_use_the_coarser_levels_choice_and_unguided_segments_teach_nothin
 #[test]
 fn invalid_segments_are_ignored_and_the_choice_stays_finite() {
     let mut grid = SelectionGrid::new(unit_box(), SelectionConfig::default()).unwrap();
+    let mut samples = grid.new_samples();
     let good = TrainingSegment {
         origin: Vec3::splat(0.5),
         direction: Vec3::Z,
@@ -200,7 +212,6 @@ fn invalid_segments_are_ignored_and_the_choice_stays_finite() {
         emitted: 0.0,
         emitter_pdf: 0.0,
         pixel_weight: 1.0,
-        throughput: 0.0,
     };
     let bad = [
         TrainingSegment {
@@ -231,8 +242,8 @@ fn invalid_segments_are_ignored_and_the_choice_stays_finite() {
             ..good
         },
     ];
-    grid.record(&bad);
-    assert_eq!(grid.update().segments, 0);
+    grid.record(&mut samples, &bad);
+    assert_eq!(update(&mut grid, &mut samples).segments, 0);
     assert!(!grid.is_trained());
     // A guide pdf of 0 where the BSDF's is positive: every α > 0 only dilutes the BSDF, so α = 0.
     let only_bsdf: Vec<TrainingSegment> = (0..200)
@@ -243,8 +254,8 @@ fn invalid_segments_are_ignored_and_the_choice_stays_finite() {
             ..good
         })
         .collect();
-    grid.record(&only_bsdf);
-    grid.update();
+    grid.record(&mut samples, &only_bsdf);
+    update(&mut grid, &mut samples);
     assert_eq!(grid.fraction_at(Vec3::splat(0.5), false), Some(0.0));
     assert!(grid.validate().is_ok());
 }
@@ -280,7 +291,6 @@ fn gmm_guide_learns_and_saves_its_selection() {
             emitted: 0.0,
             emitter_pdf: 0.0,
             pixel_weight: 1.0,
-            throughput: 0.0,
         });
     }
     let ctx = |final_build| UpdateContext {
@@ -289,21 +299,22 @@ fn gmm_guide_learns_and_saves_its_selection() {
         final_build,
         threads: 1,
     };
-    let learning = GmmConfig {
-        learn_selection: true,
-        selection_by_share: false,
-        ..GmmConfig::default()
+    let learning = SelectionLayerConfig {
+        learn: true,
+        by_share: false,
+        ..SelectionLayerConfig::default()
     };
-    let mut guide = GmmGuide::new(aabb, learning).unwrap();
+    let layered = |config: SelectionLayerConfig| {
+        SelectionLayer::new(GmmGuide::new(aabb, GmmConfig::default()).unwrap(), config)
+    };
+    let mut guide = layered(learning).unwrap();
     let x = Vec3::new(0.1, -0.2, -0.9);
     // Untrained, the guide asks for its fixed fraction.
     assert_eq!(guide.selection_probability(x, false), Some(0.75));
-    guide.record(&batch);
     // Before the final render, training keeps the fixed fraction although the grid has learned.
-    guide.update(&ctx(false));
+    guide.update_with(&batch, &ctx(false));
     assert_eq!(guide.selection_probability(x, false), Some(0.75));
-    guide.record(&batch);
-    let stats = guide.update(&ctx(true));
+    let stats = guide.update_with(&batch, &ctx(true));
     let detail = |name: &str| {
         stats
             .details
@@ -315,24 +326,48 @@ fn gmm_guide_learns_and_saves_its_selection() {
     assert_eq!(detail("selection_segments"), 4000.0);
     assert!((detail("selection_mean") - 0.9).abs() < 1e-6);
     assert_eq!(guide.selection_probability(x, false), Some(0.9));
-    let loaded = GmmGuide::load(&guide.save()).unwrap();
-    assert_eq!(loaded.selection_probability(x, false), Some(0.9));
-    // Switched off (the default), the guide asks for its fixed fraction everywhere.
-    let config = GmmConfig {
-        guide_fraction: 0.6,
-        ..GmmConfig::default()
+    let load = |bytes: &[u8], config| {
+        SelectionLayer::load(bytes, config, |b| GmmGuide::load(b, GmmConfig::default()))
     };
-    let mut fixed = GmmGuide::new(aabb, config).unwrap();
-    fixed.record(&batch);
-    fixed.update(&ctx(true));
-    assert!(fixed.is_trained());
+    let loaded = load(&guide.save(), learning).unwrap();
+    assert_eq!(loaded.selection_probability(x, false), Some(0.9));
+    assert_eq!(loaded.save(), guide.save());
+    // Loaded without learning, the guide asks for its fixed fraction.
+    let unlearned = SelectionLayerConfig {
+        learn: false,
+        ..learning
+    };
+    assert_eq!(
+        load(&guide.save(), unlearned)
+            .unwrap()
+            .selection_probability(x, false),
+        Some(0.75)
+    );
+    // Without learning, the guide asks for its fixed fraction everywhere.
+    let mut fixed = layered(SelectionLayerConfig {
+        guide_fraction: Some(0.6),
+        learn: false,
+        ..SelectionLayerConfig::default()
+    })
+    .unwrap();
+    fixed.update_with(&batch, &ctx(true));
+    assert!(fixed.field().is_trained());
     assert_eq!(fixed.selection_probability(x, false), Some(0.6));
-    assert!(GmmGuide::new(
-        aabb,
-        GmmConfig {
-            guide_fraction: 1.0,
-            ..GmmConfig::default()
-        }
-    )
-    .is_err());
+    // Without a fraction of its own, the renderer's (the octree's default).
+    let mut renderers = layered(SelectionLayerConfig::renderers_fraction()).unwrap();
+    renderers.update_with(&batch, &ctx(true));
+    assert_eq!(renderers.selection_probability(x, false), None);
+    for bad in [
+        SelectionLayerConfig {
+            guide_fraction: Some(1.0),
+            ..SelectionLayerConfig::default()
+        },
+        SelectionLayerConfig {
+            guide_fraction: None,
+            learn: true,
+            ..SelectionLayerConfig::default()
+        },
+    ] {
+        assert!(layered(bad).is_err(), "{bad:?}");
+    }
 }

@@ -2,7 +2,11 @@
 
 use crate::geometry::Aabb;
 use focal_guiding::octree::{FocalOctreeGuide, OctreeGuideConfig};
-use focal_guiding::{Aabb3, GmmConfig, GmmGuide, GuidingDistribution};
+use focal_guiding::gmm::GMM_SNAPSHOT_MAGIC;
+use focal_guiding::octree::OCTREE_SNAPSHOT_MAGIC;
+use focal_guiding::{
+    Aabb3, GmmConfig, GmmGuide, GuidingField, SelectionLayer, SnapshotHeader, GUIDE_SNAPSHOT_MAGIC,
+};
 
 /// Which guiding distribution a guided render learns.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
@@ -55,31 +59,48 @@ pub fn guide_box(bounds: &Aabb) -> Aabb3 {
     }
 }
 
-/// A fresh guide of `method` over `bounds` (`None` for [`GuidingMethod::None`]).
+/// A fresh guide of `method` over `bounds` (`None` for [`GuidingMethod::None`]). The mixture comes with
+/// its selection layer (`params.gmm.selection`: the fraction it asks for, learned per region for the
+/// final render); the octree leaves the renderer's fixed fraction.
 pub fn make_guide(
     method: GuidingMethod,
     bounds: &Aabb,
     params: &GuideParams,
-) -> Result<Option<Box<dyn GuidingDistribution>>, String> {
+) -> Result<Option<Box<dyn GuidingField>>, String> {
     Ok(match method {
         GuidingMethod::None => None,
         GuidingMethod::Octree => Some(Box::new(FocalOctreeGuide::new(
             guide_box(bounds),
             params.octree,
         )?)),
-        GuidingMethod::Gmm => Some(Box::new(GmmGuide::new(guide_box(bounds), params.gmm)?)),
+        GuidingMethod::Gmm => Some(Box::new(SelectionLayer::new(
+            GmmGuide::new(guide_box(bounds), params.gmm)?,
+            params.gmm.selection,
+        )?)),
     })
 }
 
-/// Loads a guide saved with [`GuidingDistribution::save`] (the method is recognised by the snapshot).
-pub fn load_guide(bytes: &[u8]) -> Result<Box<dyn GuidingDistribution>, String> {
-    match FocalOctreeGuide::load(bytes) {
-        Ok(g) => Ok(Box::new(g)),
-        Err(octree) => match GmmGuide::load(bytes) {
-            Ok(g) => Ok(Box::new(g)),
-            Err(gmm) => Err(format!(
-                "not a saved guide (as an octree: {octree}; as a mixture: {gmm})"
-            )),
-        },
-    }
+/// Loads a guide saved with [`GuidingField::save`], recognised by the snapshot's header. A snapshot
+/// holds the model, not its configuration: the guide takes `params` (the scene's and the command
+/// line's) for everything else.
+pub fn load_guide(bytes: &[u8], params: &GuideParams) -> Result<Box<dyn GuidingField>, String> {
+    let header = SnapshotHeader::read(bytes).ok_or("not a saved guide (no snapshot header)")?;
+    Ok(match header.magic {
+        OCTREE_SNAPSHOT_MAGIC => Box::new(FocalOctreeGuide::load(bytes, params.octree)?),
+        GMM_SNAPSHOT_MAGIC => Box::new(SelectionLayer::new(
+            GmmGuide::load(bytes, params.gmm)?,
+            params.gmm.selection,
+        )?),
+        GUIDE_SNAPSHOT_MAGIC => Box::new(SelectionLayer::load(
+            bytes,
+            params.gmm.selection,
+            |field| GmmGuide::load(field, params.gmm),
+        )?),
+        other => {
+            return Err(format!(
+                "not a saved guide (unknown snapshot kind {:?})",
+                String::from_utf8_lossy(&other)
+            ))
+        }
+    })
 }

@@ -6,7 +6,7 @@ mod common;
 use common::*;
 use focal_render::guide::{make_guide, GuideParams, GuidingMethod};
 use focal_render::guiding::octree::FocalOctreeGuide;
-use focal_render::guiding::GuidingDistribution;
+use focal_render::guiding::GuidingField;
 use focal_render::integrator::GuidedSettings;
 use focal_render::render::combine::Combine;
 use focal_render::render::guided::{
@@ -31,13 +31,13 @@ fn guided_settings(spp: u32, seed: u64, threads: usize, combine: Combine) -> Gui
 
 fn render_with(
     scene: &LoadedScene,
-    guide: Option<&mut dyn GuidingDistribution>,
+    guide: Option<&mut dyn GuidingField>,
     s: &GuidedRenderSettings,
 ) -> GuidedOutput {
     render_guided(&scene.scene, &scene.camera, &scene.film, guide, s, &|_| {})
 }
 
-fn guide_for(method: GuidingMethod, scene: &LoadedScene) -> Box<dyn GuidingDistribution> {
+fn guide_for(method: GuidingMethod, scene: &LoadedScene) -> Box<dyn GuidingField> {
     guide_with(method, scene, &GuideParams::default())
 }
 
@@ -45,7 +45,7 @@ fn guide_with(
     method: GuidingMethod,
     scene: &LoadedScene,
     params: &GuideParams,
-) -> Box<dyn GuidingDistribution> {
+) -> Box<dyn GuidingField> {
     make_guide(method, &scene.scene.bounds, params)
         .unwrap()
         .unwrap()
@@ -204,8 +204,8 @@ fn check_selection_keeps_the_mean(params: &GuideParams, name: &str) -> f64 {
 #[test]
 fn learned_selection_keeps_the_mean() {
     let mut params = GuideParams::default();
-    params.gmm.learn_selection = true;
-    params.gmm.selection_by_share = false;
+    params.gmm.selection.learn = true;
+    params.gmm.selection.by_share = false;
     let skip = check_selection_keeps_the_mean(&params, "selection_skip_share");
     assert!(skip > 0.0 && skip < 1.0, "skip share {skip}");
 }
@@ -216,12 +216,12 @@ fn learned_selection_keeps_the_mean() {
 fn share_rule_selection_keeps_the_mean() {
     let params = GuideParams::default();
     assert!(
-        params.gmm.learn_selection && params.gmm.selection_by_share,
+        params.gmm.selection.learn && params.gmm.selection.by_share,
         "the default"
     );
     let mean = check_selection_keeps_the_mean(&params, "selection_mean");
     // Learned fractions strictly inside the clamp's range on average: the rule did choose.
-    let (lo, hi) = (params.gmm.selection_min, params.gmm.guide_fraction);
+    let (lo, hi) = (params.gmm.selection.min, params.gmm.selection.guide_fraction.unwrap());
     assert!(mean > lo as f64 && mean < hi as f64, "mean fraction {mean}");
 }
 
@@ -303,17 +303,6 @@ fn gmm_learns_the_camera_obscura_pinhole() {
     learns_the_pinhole(GuidingMethod::Gmm, &GuideParams::default());
 }
 
-/// MIS-compensated weights keep the pinhole: its rays carry far more than the room's mean reflected
-/// radiance predicts (0.51 of guided directions through the hole at κ = 1, as at κ = 0). Pruning
-/// components below 0.5 % of the weight loses it with or without compensation (0.0013 and 0.0006):
-/// the hole's component is still small in the first guided iterations.
-#[test]
-fn gmm_with_compensated_weights_learns_the_camera_obscura_pinhole() {
-    let mut params = GuideParams::default();
-    params.gmm.compensation = 1.0;
-    learns_the_pinhole(GuidingMethod::Gmm, &params);
-}
-
 #[test]
 fn octree_learns_the_camera_obscura_pinhole() {
     learns_the_pinhole(GuidingMethod::Octree, &GuideParams::default());
@@ -378,64 +367,69 @@ fn guided_paths_pass_through_masks_without_bias() {
 
 /// A guide that passes everything to a real one and keeps the segments it is given, per iteration.
 struct RecordingGuide {
-    inner: Box<dyn GuidingDistribution>,
+    inner: Box<dyn GuidingField>,
     iteration: u32,
-    seen: Vec<(u32, focal_render::guiding::TrainingSegment)>,
+    seen: std::sync::Mutex<Vec<(u32, focal_render::guiding::TrainingSegment)>>,
 }
 
-impl GuidingDistribution for RecordingGuide {
+impl GuidingField for RecordingGuide {
     fn name(&self) -> &'static str {
         "recording"
     }
+    fn aabb(&self) -> focal_render::guiding::Aabb3 {
+        self.inner.aabb()
+    }
+    fn init(
+        &self,
+        d: &mut focal_render::guiding::SamplingDistribution,
+        x: glam::Vec3,
+        n: Option<glam::Vec3>,
+    ) {
+        self.inner.init(d, x, n)
+    }
     fn sample(
         &self,
-        x: glam::Vec3,
-        n: Option<glam::Vec3>,
+        d: &focal_render::guiding::SamplingDistribution,
         u: [f32; 3],
     ) -> Option<focal_render::guiding::GuideSample> {
-        self.inner.sample(x, n, u)
+        self.inner.sample(d, u)
     }
-    fn pdf(&self, x: glam::Vec3, n: Option<glam::Vec3>, d: glam::Vec3) -> f32 {
-        self.inner.pdf(x, n, d)
-    }
-    fn prepare(
-        &self,
-        x: glam::Vec3,
-        n: Option<glam::Vec3>,
-        v: &mut focal_render::guiding::GuideVertex,
-    ) {
-        self.inner.prepare(x, n, v)
-    }
-    fn sample_at(
-        &self,
-        v: &focal_render::guiding::GuideVertex,
-        u: [f32; 3],
-    ) -> Option<focal_render::guiding::GuideSample> {
-        self.inner.sample_at(v, u)
-    }
-    fn pdf_at(&self, v: &focal_render::guiding::GuideVertex, d: glam::Vec3) -> f32 {
-        self.inner.pdf_at(v, d)
+    fn pdf(&self, d: &focal_render::guiding::SamplingDistribution, w: glam::Vec3) -> f32 {
+        self.inner.pdf(d, w)
     }
     fn selection_probability(&self, x: glam::Vec3, glossy: bool) -> Option<f32> {
         self.inner.selection_probability(x, glossy)
     }
-    fn wants_empty_segments(&self) -> bool {
-        self.inner.wants_empty_segments()
+    fn new_samples(&self) -> focal_render::guiding::SampleStorage {
+        self.inner.new_samples()
     }
-    fn record(&mut self, segments: &[focal_render::guiding::TrainingSegment]) {
+    fn add_samples(
+        &self,
+        samples: &mut focal_render::guiding::SampleStorage,
+        segments: &[focal_render::guiding::TrainingSegment],
+    ) {
         self.seen
+            .lock()
+            .unwrap()
             .extend(segments.iter().map(|s| (self.iteration, *s)));
-        self.inner.record(segments)
+        self.inner.add_samples(samples, segments)
     }
     fn update(
         &mut self,
+        samples: focal_render::guiding::SampleStorage,
         ctx: &focal_render::guiding::UpdateContext,
     ) -> focal_render::guiding::UpdateStats {
         self.iteration += 1;
-        self.inner.update(ctx)
+        self.inner.update(samples, ctx)
+    }
+    fn updates(&self) -> u32 {
+        self.inner.updates()
     }
     fn save(&self) -> Vec<u8> {
         self.inner.save()
+    }
+    fn as_any(&self) -> &dyn std::any::Any {
+        self.inner.as_any()
     }
 }
 
@@ -449,12 +443,12 @@ fn training_segments_carry_emission_and_pixel_weights() {
     let mut guide = RecordingGuide {
         inner: guide_for(GuidingMethod::Gmm, &scene),
         iteration: 0,
-        seen: Vec::new(),
+        seen: Default::default(),
     };
     let s = guided_settings(16, 5, 0, Combine::InverseVariance);
     let out = render_with(&scene, Some(&mut guide), &s);
     assert!(all_finite(&out.image));
-    let seen = &guide.seen;
+    let seen = guide.seen.into_inner().unwrap();
     let emitting: Vec<_> = seen.iter().filter(|(_, s)| s.emitted > 0.0).collect();
     // The lamp covers a small solid angle: about 1 % of the segments hit it.
     assert!(
@@ -491,48 +485,6 @@ fn training_segments_carry_emission_and_pixel_weights() {
     assert!(lo < 0.5 && hi > 0.7, "pixel weights span [{lo}, {hi}]");
 }
 
-/// A guide that counts the vertices whose continuation carried nothing (the GMM's MIS compensation
-/// needs every vertex's mean) is handed those segments too, with weight 0; every segment carries the
-/// path throughput at its origin. A guide that does not ask gets contributing segments only.
-#[test]
-fn empty_segments_reach_only_the_guides_that_ask_for_them() {
-    let scene = load(&reference_scene("cbox"), &[("res", "24")]);
-    for kappa in [0.0, 1.0] {
-        let params = GuideParams {
-            gmm: focal_render::guiding::GmmConfig {
-                compensation: kappa,
-                ..Default::default()
-            },
-            ..Default::default()
-        };
-        let mut guide = RecordingGuide {
-            inner: guide_with(GuidingMethod::Gmm, &scene, &params),
-            iteration: 0,
-            seen: Vec::new(),
-        };
-        let out = render_with(
-            &scene,
-            Some(&mut guide),
-            &guided_settings(8, 3, 0, Combine::InverseVariance),
-        );
-        assert!(all_finite(&out.image));
-        let seen = &guide.seen;
-        assert!(seen
-            .iter()
-            .all(|(_, s)| s.weight >= 0.0 && s.throughput > 0.0));
-        let empty = seen.iter().filter(|(_, s)| s.weight == 0.0).count();
-        if kappa > 0.0 {
-            assert!(
-                empty > 0 && empty < seen.len(),
-                "{empty} of {} segments empty",
-                seen.len()
-            );
-        } else {
-            assert_eq!(empty, 0);
-        }
-    }
-}
-
 /// Segments from a floor up into glass are told apart by what the glass did to the path: a ball bends
 /// the paths that refract through it (the straight line through it does not point to where their light
 /// came from), a thin pane does not (only the paths reflected inside it leave in another direction).
@@ -565,13 +517,13 @@ fn segments_into_a_glass_ball_refract_and_into_a_pane_do_not() {
     let mut guide = RecordingGuide {
         inner: guide_for(GuidingMethod::Gmm, &scene),
         iteration: 0,
-        seen: Vec::new(),
+        seen: Default::default(),
     };
     let s = guided_settings(16, 3, 0, Combine::InverseVariance);
     let out = render_with(&scene, Some(&mut guide), &s);
     assert!(all_finite(&out.image));
     let (mut ball, mut ball_bent, mut pane, mut pane_bent) = (0usize, 0usize, 0usize, 0usize);
-    for (_, seg) in &guide.seen {
+    for (_, seg) in guide.seen.lock().unwrap().iter() {
         if !seg.distance.is_finite() {
             continue;
         }

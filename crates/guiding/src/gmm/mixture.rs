@@ -4,10 +4,8 @@
 use glam::{DVec3, Vec3};
 
 use super::columns::GaussianColumns;
-use super::cumulative::pick_interval;
 use super::directional_pdf::{half_line_kernel, half_line_kernel_f32};
 use super::gaussian::Gaussian3;
-use super::origins::OriginModel;
 use super::special::{inv_norm_cdf_approx, norm_cdf_branchless, open_unit};
 use super::special32::norm_cdf_f32_given_u;
 
@@ -16,20 +14,17 @@ pub const MAX_COMPONENTS: usize = 128;
 /// Lanes of the component loops: arrays are padded to a multiple of it with inert components.
 const LANES: usize = 8;
 /// `f32` values per component that [`Mixture::prepare_vertex`] writes for a shading point.
-pub const TERMS_PER_COMPONENT: usize = 5;
+pub const TERMS_PER_COMPONENT: usize = 4;
 /// Tolerance on Σπ = 1 for mixtures whose weights are taken as given (snapshots, M-step output).
 const WEIGHT_SUM_TOLERANCE: f64 = 1e-9;
 
-/// ρ(y) = Σ_k π_k N(y | μ_k, Σ_k) with Σπ_k = 1 (or no components at all: the empty mixture), and
-/// optionally where its rays start ([`OriginModel`]): then a shading point x weighs the components by
-/// c_k(x) instead of π_k in the directional pdf and in sampling.
+/// ρ(y) = Σ_k π_k N(y | μ_k, Σ_k) with Σπ_k = 1 (or no components at all: the empty mixture).
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct Mixture {
     weights: Vec<f64>,
     components: Vec<Gaussian3>,
     cdf: Vec<f64>,
     soa: Soa,
-    origins: Option<OriginModel>,
 }
 
 /// Structure-of-arrays copies of the components for the vectorised pdf and hemisphere-mass loops,
@@ -40,8 +35,6 @@ struct Soa {
     coef: Vec<f64>,
     /// π_k.
     weight: Vec<f64>,
-    /// 1/π_k (0 for the padding).
-    inv_weight: Vec<f64>,
     mean: [Vec<f64>; 3],
     inv_chol: [Vec<f64>; 6],
     chol: [Vec<f64>; 6],
@@ -69,10 +62,6 @@ impl Soa {
         coef.resize(padded, 0.0);
         let mut weight = weights.to_vec();
         weight.resize(padded, 0.0);
-        let inv_weight = weight
-            .iter()
-            .map(|w| if *w > 0.0 { 1.0 / w } else { 0.0 })
-            .collect();
         let to_f32 = |v: &Vec<f64>| v.iter().map(|x| *x as f32).collect::<Vec<f32>>();
         Self {
             chol32: std::array::from_fn(|i| to_f32(&chol[i])),
@@ -80,7 +69,6 @@ impl Soa {
             inv_chol32: std::array::from_fn(|i| to_f32(&inv_chol[i])),
             coef,
             weight,
-            inv_weight,
             mean,
             inv_chol,
             chol,
@@ -142,50 +130,7 @@ impl Mixture {
             components,
             cdf,
             soa,
-            origins: None,
         })
-    }
-
-    /// The same mixture with x-dependent component weights from `origins` (one entry per component).
-    pub fn with_origins(mut self, origins: OriginModel) -> Result<Self, String> {
-        if origins.len() != self.len() {
-            return Err(format!(
-                "an origin model of {} components for a mixture of {}",
-                origins.len(),
-                self.len()
-            ));
-        }
-        self.origins = Some(origins);
-        Ok(self)
-    }
-
-    /// The same mixture with the global weights π_k everywhere.
-    pub fn without_origins(mut self) -> Self {
-        self.origins = None;
-        self
-    }
-
-    /// The origin model, if the component weights depend on the shading point.
-    pub fn origins(&self) -> Option<&OriginModel> {
-        self.origins.as_ref()
-    }
-
-    /// Writes c_k(x)/π_k for every (padded) component into `out` (1 without an origin model; the
-    /// padding, whose weight is 0, gets some finite value).
-    #[inline]
-    pub fn weight_factors(&self, x: DVec3, out: &mut [f64]) {
-        let n = self.soa.weight.len();
-        match &self.origins {
-            Some(o) => o.factors(x, &self.soa.inv_weight, out),
-            None => out[..n].fill(1.0),
-        }
-    }
-
-    /// c_k(x), the weight of component k at shading point x (π_k without an origin model).
-    pub fn weights_at(&self, x: DVec3) -> Vec<f64> {
-        let mut f = [0.0f64; MAX_COMPONENTS];
-        self.weight_factors(x, &mut f);
-        self.weights.iter().zip(&f).map(|(w, f)| w * f).collect()
     }
 
     /// Number of components.
@@ -227,14 +172,12 @@ impl Mixture {
         let [l0, l1, l2, l3, l4, l5] = &s.inv_chol;
         let (l0, l1, l2, l3, l4, l5) = (&l0[..n], &l1[..n], &l2[..n], &l3[..n], &l4[..n], &l5[..n]);
         let coef = &s.coef[..n];
-        let mut factor = [0.0f64; MAX_COMPONENTS];
-        self.weight_factors(x, &mut factor);
         let mut values = [0.0f64; MAX_COMPONENTS];
         let values = &mut values[..n];
         for k in 0..n {
             let d = [mx[k] - x.x, my[k] - x.y, mz[k] - x.z];
             let l = [l0[k], l1[k], l2[k], l3[k], l4[k], l5[k]];
-            values[k] = coef[k] * factor[k] * half_line_kernel(d, l, omega);
+            values[k] = coef[k] * half_line_kernel(d, l, omega);
         }
         let mut lanes = [0.0f64; 4];
         // Padded to eight, so also to four.
@@ -254,10 +197,9 @@ impl Mixture {
 
     /// Writes what the renderer's kernel needs of shading point `x` for every component, in one pass
     /// over the components: into `terms` (which needs [`TERMS_PER_COMPONENT`] × [`Mixture::padded_len`]
-    /// values) the whitened offset zd = L⁻¹(μ − x), ½|zd|² and the weight factor c_k(x)/π_k
-    /// ([`Mixture::weight_factors`]), computed in `f64` and stored in `f32` as five blocks; with
-    /// `half_space` = (n, upper), into `masses` ([`Mixture::padded_len`] values)
-    /// c_k(x)·P_k(n·(y − x) > 0) (or < 0 if not `upper`), the offset along n in `f64` and Φ (to about
+    /// values) the whitened offset zd = L⁻¹(μ − x) and ½|zd|², computed in `f64` and stored in `f32` as
+    /// four blocks; with `half_space` = (n, upper), into `masses` ([`Mixture::padded_len`] values)
+    /// π_k·P_k(n·(y − x) > 0) (or < 0 if not `upper`), the offset along n in `f64` and Φ (to about
     /// 3e-7 relative) in `f32` (see [`Mixture::half_space_masses`] for the `f64` reference).
     #[inline]
     pub fn prepare_vertex(
@@ -271,13 +213,7 @@ impl Mixture {
         let n = s.coef.len();
         let (zd0, rest) = terms[..TERMS_PER_COMPONENT * n].split_at_mut(n);
         let (zd1, rest) = rest.split_at_mut(n);
-        let (zd2, rest) = rest.split_at_mut(n);
-        let (half_c, factor32) = rest.split_at_mut(n);
-        let mut factor = [0.0f64; MAX_COMPONENTS];
-        self.weight_factors(x, &mut factor);
-        for (f32v, f) in factor32.iter_mut().zip(&factor[..n]) {
-            *f32v = *f as f32;
-        }
+        let (zd2, half_c) = rest.split_at_mut(n);
         let (mx, my, mz) = (&s.mean[0][..n], &s.mean[1][..n], &s.mean[2][..n]);
         let [l0, l1, l2, l3, l4, l5] = &s.inv_chol;
         let (l0, l1, l2, l3, l4, l5) = (&l0[..n], &l1[..n], &l2[..n], &l3[..n], &l4[..n], &l5[..n]);
@@ -299,7 +235,7 @@ impl Mixture {
             delta[k] = (sign * (normal.x * d[0] + normal.y * d[1] + normal.z * d[2])) as f32;
         }
         if half_space.is_some() {
-            self.masses_from_offsets(normal.as_vec3(), delta, factor32, masses);
+            self.masses_from_offsets(normal.as_vec3(), delta, masses);
         }
     }
 
@@ -313,8 +249,7 @@ impl Mixture {
         let n = s.coef.len();
         let (zd0, rest) = terms[..TERMS_PER_COMPONENT * n].split_at(n);
         let (zd1, rest) = rest.split_at(n);
-        let (zd2, rest) = rest.split_at(n);
-        let (half_c, factor) = rest.split_at(n);
+        let (zd2, half_c) = rest.split_at(n);
         let [l0, l1, l2, l3, l4, l5] = &s.inv_chol32;
         let (l0, l1, l2, l3, l4, l5) = (&l0[..n], &l1[..n], &l2[..n], &l3[..n], &l4[..n], &l5[..n]);
         let coef = &s.coef32[..n];
@@ -322,7 +257,6 @@ impl Mixture {
         let values = &mut values[..n];
         for k in 0..n {
             values[k] = coef[k]
-                * factor[k]
                 * half_line_kernel_f32(
                     [zd0[k], zd1[k], zd2[k]],
                     half_c[k],
@@ -340,7 +274,7 @@ impl Mixture {
             + ((lanes[4] + lanes[5]) + (lanes[6] + lanes[7]))
     }
 
-    /// Writes c_k(x)·P_k(n·(y − x) > 0) (or < 0 if `upper` is false) for every component into `out`, all in
+    /// Writes π_k·P_k(n·(y − x) > 0) (or < 0 if `upper` is false) for every component into `out`, all in
     /// `f64` (the reference for the masses of [`Mixture::prepare_vertex`]; `out` needs
     /// [`Mixture::padded_len`] entries).
     #[inline]
@@ -353,8 +287,6 @@ impl Mixture {
         let (c0, c1, c2) = (&c0[..len], &c1[..len], &c2[..len]);
         let (c3, c4, c5) = (&c3[..len], &c4[..len], &c5[..len]);
         let weights = &s.weight[..len];
-        let mut factor = [0.0f64; MAX_COMPONENTS];
-        self.weight_factors(x, &mut factor);
         let sign = if upper { 1.0 } else { -1.0 };
         for k in 0..len {
             let delta = n.x * (mx[k] - x.x) + n.y * (my[k] - x.y) + n.z * (mz[k] - x.z);
@@ -363,15 +295,14 @@ impl Mixture {
             let t1 = c2[k] * n.y + c4[k] * n.z;
             let t2 = c5[k] * n.z;
             let sigma = (t0 * t0 + t1 * t1 + t2 * t2).sqrt();
-            out[k] = weights[k] * factor[k] * norm_cdf_branchless(sign * delta / sigma);
+            out[k] = weights[k] * norm_cdf_branchless(sign * delta / sigma);
         }
     }
 
-    /// π_k·f_k·Φ(δ_k/σ_k) into `out` from the signed offsets δ_k along the unit normal `n`
-    /// (σ_k = √(nᵀΣ_kn)) and the weight factors f_k, in `f32` eight lanes wide, with one division per
-    /// component.
+    /// π_k·Φ(δ_k/σ_k) into `out` from the signed offsets δ_k along the unit normal `n`
+    /// (σ_k = √(nᵀΣ_kn)), in `f32` eight lanes wide, with one division per component.
     #[inline]
-    fn masses_from_offsets(&self, n: Vec3, delta: &[f32], factor: &[f32], out: &mut [f64]) {
+    fn masses_from_offsets(&self, n: Vec3, delta: &[f32], out: &mut [f64]) {
         let s = &self.soa;
         let len = s.coef.len();
         let out = &mut out[..len];
@@ -396,7 +327,7 @@ impl Mixture {
             cdf[k] = norm_cdf_f32_given_u(delta[k] * reach * inv, u);
         }
         for k in 0..len {
-            out[k] = weights[k] * (factor[k] * cdf[k]) as f64;
+            out[k] = weights[k] * cdf[k] as f64;
         }
     }
 
@@ -409,38 +340,6 @@ impl Mixture {
         let lo = if k == 0 { 0.0 } else { self.cdf[k - 1] };
         let rescaled = ((u - lo) / self.weights[k]).clamp(0.0, 1.0);
         Some((k, rescaled))
-    }
-
-    /// Picks component k with probability c_k(x) from the weight factors of x's
-    /// [`Mixture::prepare_vertex`] `terms`, using `u` in [0, 1), and returns it with `u` rescaled to
-    /// [0, 1) within the chosen interval.
-    #[inline]
-    pub fn select_prepared(&self, terms: &[f32], u: f64) -> Option<(usize, f64)> {
-        if self.origins.is_none() {
-            return self.select(u);
-        }
-        let n = self.soa.coef.len();
-        let factor = &terms[4 * n..5 * n];
-        let masses = self.weights.iter().zip(factor).map(|(w, f)| w * *f as f64);
-        let total: f64 = masses.clone().sum();
-        if !(total > 0.0) {
-            return None;
-        }
-        let target = u * total;
-        let (k, before, m) = pick_interval(masses, target)?;
-        Some((k, ((target - before) / m).clamp(0.0, 1.0)))
-    }
-
-    /// A point y ~ Σ_k c_k(x) N_k from three uniforms, given x's [`Mixture::prepare_vertex`] `terms`
-    /// (as [`Mixture::sample_point`], with the component chosen by [`Mixture::select_prepared`]).
-    pub fn sample_point_prepared(&self, terms: &[f32], u: [f64; 3]) -> Option<DVec3> {
-        let (k, u0) = self.select_prepared(terms, u[0])?;
-        let z = DVec3::new(
-            inv_norm_cdf_approx(open_unit(u0)),
-            inv_norm_cdf_approx(open_unit(u[1])),
-            inv_norm_cdf_approx(open_unit(u[2])),
-        );
-        Some(self.components[k].point(z))
     }
 
     /// A point y ~ ρ from three uniforms: `u[0]` selects the component and, rescaled, drives the first
@@ -464,14 +363,7 @@ impl Mixture {
             .map(|g| g.transformed(center, scale))
             .collect::<Option<Vec<_>>>()
             .ok_or("a component degenerates under the change of units")?;
-        let mixture = Self::from_normalized(self.weights.clone(), components)?;
-        match &self.origins {
-            Some(o) => mixture.with_origins(
-                o.mapped(|g| g.transformed(center, scale))
-                    .ok_or("an origin Gaussian degenerates under the change of units")?,
-            ),
-            None => Ok(mixture),
-        }
+        Self::from_normalized(self.weights.clone(), components)
     }
 
     /// The inverse of [`Mixture::transformed`]: every component mapped by y ↦ `center` + `scale`·y.
@@ -482,13 +374,6 @@ impl Mixture {
             .map(|g| g.untransformed(center, scale))
             .collect::<Option<Vec<_>>>()
             .ok_or("a component degenerates under the change of units")?;
-        let mixture = Self::from_normalized(self.weights.clone(), components)?;
-        match &self.origins {
-            Some(o) => mixture.with_origins(
-                o.mapped(|g| g.untransformed(center, scale))
-                    .ok_or("an origin Gaussian degenerates under the change of units")?,
-            ),
-            None => Ok(mixture),
-        }
+        Self::from_normalized(self.weights.clone(), components)
     }
 }

@@ -45,9 +45,6 @@ pub struct TrainingRay {
     pub weight: f32,
     /// p_mix(ω) at x_k (> 0).
     pub pdf: f32,
-    /// T·p_bsdf(ω)/p_mix(ω) of the segment (T the path throughput at x_k; 0 where not compensated):
-    /// times the region's reflected radiance, the part of `weight` the BSDF alone would have found.
-    pub expected: f32,
 }
 
 impl TrainingRay {
@@ -134,59 +131,6 @@ impl NarrowingTable {
     /// True if the mixture has no components.
     pub fn is_empty(&self) -> bool {
         self.weights.is_empty()
-    }
-
-    /// Which components a ray o + tω, t ∈ [t0, t1] (unit ω) was aimed at, as seen from its origin: the
-    /// posterior γ_k ∝ π_k ∫ N_k(o + tω) t² dt of the direction ω among the components' directional
-    /// pdfs (the half-line kernel of the design note, over the ray's interval), written to `gamma`
-    /// (which needs [`NarrowingTable::len`] entries). The t² is taken at the component's peak clamped
-    /// to the interval, plus its variance along the ray (t̄² + s², exact for a peak inside the
-    /// interval); without it a broad component around the origin, which spreads its directions over
-    /// the whole sphere, would claim the rays that start in it. Components more than e⁻²⁰ below the
-    /// best bound get 0. False, with `gamma` undefined, if the ray reaches no component.
-    pub fn line_posterior(&self, o: DVec3, w: DVec3, t0: f64, t1: f64, gamma: &mut [f64]) -> bool {
-        let k = self.len();
-        if k == 0 || !(t1 > t0) {
-            return false;
-        }
-        let mut m = [0.0f64; MAX_COMPONENTS];
-        let mut s = [1.0f64; MAX_COMPONENTS];
-        let mut log_peak = [f64::NEG_INFINITY; MAX_COMPONENTS];
-        let mut bound = [f64::NEG_INFINITY; MAX_COMPONENTS];
-        let mut t2 = [0.0f64; MAX_COMPONENTS];
-        self.restrict_to_segment(o, w, t0, t1, &mut m, &mut s, &mut log_peak, &mut bound);
-        for i in 0..k {
-            let t = m[i].clamp(t0, t1);
-            t2[i] = t * t + s[i] * s[i];
-            bound[i] += t2[i].ln();
-        }
-        let best = bound[..k].iter().fold(f64::NEG_INFINITY, |a, &b| a.max(b));
-        if !best.is_finite() {
-            return false;
-        }
-        let mut total = 0.0;
-        for i in 0..k {
-            gamma[i] = if bound[i] >= best - NARROWING_CULL {
-                // Relative to the best bound, so that rays far from every component do not underflow.
-                let line = LineGaussian {
-                    m: m[i],
-                    s: s[i],
-                    log_peak: log_peak[i] - best,
-                    log_at_origin: f64::NEG_INFINITY,
-                };
-                self.weights[i] * line.segment_mass(t0, t1) * t2[i]
-            } else {
-                0.0
-            };
-            total += gamma[i];
-        }
-        if !(total > 0.0 && total.is_finite()) {
-            return false;
-        }
-        for g in &mut gamma[..k] {
-            *g /= total;
-        }
-        true
     }
 
     /// Every component restricted to the line o + tω (as [`super::gaussian::Gaussian3::along_line`],
@@ -282,7 +226,7 @@ pub fn mix64(mut z: u64) -> u64 {
 /// subset's weight) and a period in the ray order (bounces of one path, alternating regions) cannot
 /// alias with a fixed offset. May point past the end in the last, partial run: the caller skips it.
 #[inline]
-pub(crate) fn stride_pick(m: usize, stride: usize, seed: u64) -> usize {
+fn stride_pick(m: usize, stride: usize, seed: u64) -> usize {
     m * stride + (mix64(seed ^ mix64(m as u64)) % stride as u64) as usize
 }
 
@@ -413,4 +357,14 @@ pub fn generate_points(
         })
         .collect();
     parts.concat()
+}
+
+/// The effective number (Σm)²/Σm² of samples with masses m (0 if all are 0).
+pub fn effective_count(masses: impl Iterator<Item = f64>) -> f64 {
+    let (s, s2) = masses.fold((0.0f64, 0.0f64), |(s, s2), m| (s + m, s2 + m * m));
+    if s2 > 0.0 {
+        s * s / s2
+    } else {
+        0.0
+    }
 }

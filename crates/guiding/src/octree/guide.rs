@@ -2,17 +2,19 @@
 //! [`FocalTree`] mixed with the learned probability p_div, trained from path segments between
 //! iterations (design notes `focal-guiding-octree.md` §3, §4, §6).
 
+use std::any::Any;
 use std::time::Instant;
 
 use glam::Vec3;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
-use super::tree::{
-    is_positive_finite, ChildSlot, FocalTree, Node, SplatStrategy, TreeConfig, MAX_SUPPORTED_DEPTH,
+use super::snapshot::{decode_snapshot, encode_snapshot};
+use super::tree::{is_positive_finite, FocalTree, SplatStrategy, TreeConfig, MAX_SUPPORTED_DEPTH};
+use crate::{
+    Aabb3, GuideSample, GuidingField, SampleStorage, SamplingDistribution, Schedule,
+    SelectionLayerConfig, TrainingSegment, UpdateContext, UpdateStats,
 };
-use crate::distribution::check_snapshot_header;
-use crate::{Aabb3, GuideSample, GuidingDistribution, TrainingSegment, UpdateContext, UpdateStats};
 
 /// Segments per splatting work item. Fixed (not derived from the thread count) so the per-chunk sums,
 /// reduced in chunk order, are bit-identical for any number of threads.
@@ -20,24 +22,23 @@ pub const SPLAT_CHUNK: usize = 4096;
 /// Chunks splatted concurrently before their buffers are reduced (bounds memory; does not affect the
 /// result, since the reduction order is always the chunk order).
 const CHUNKS_PER_ROUND: usize = 16;
-/// The decay the original hard-codes once iterative narrowing starts.
-pub const NARROWING_DECAY: f64 = 0.25;
-/// Magic prefix of [`FocalOctreeGuide::save`] snapshots.
-const SNAPSHOT_MAGIC: [u8; 8] = *b"FOCALOCT";
-/// Version of the snapshot layout.
-const SNAPSHOT_VERSION: u32 = 1;
 
 /// User parameters of the octree guide (the original's `orth.*` integrator keys).
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default)]
 pub struct OctreeGuideConfig {
     /// Relative split threshold: a slot splits when its mass exceeds threshold × (W_conv + W_div).
     pub threshold: f64,
-    /// Accumulator decay per build before iterative narrowing (afterwards 0.25, as in the original).
-    pub decay: f64,
     /// Forced subdivision depth (reset to 0 for the final, pruning build).
     pub min_depth: u32,
     /// Maximum slot depth (leaves of extent / 2^(max_depth+1)).
     pub max_depth: u32,
+    /// Accumulator decay per build and iterative narrowing (`orth.decay` is its `decay`; the original
+    /// always narrows, from ⌊2N/3⌋).
+    pub schedule: Schedule,
+    /// The selection layer a renderer puts over the guide: by default none of its own, the renderer's
+    /// fixed fraction (Rath et al.'s 0.5).
+    pub selection: SelectionLayerConfig,
 }
 
 impl Default for OctreeGuideConfig {
@@ -45,36 +46,37 @@ impl Default for OctreeGuideConfig {
         let tree = TreeConfig::default();
         Self {
             threshold: tree.threshold,
-            decay: tree.decay,
             min_depth: tree.min_depth,
             max_depth: tree.max_depth,
+            schedule: Schedule {
+                decay: tree.decay,
+                ..Schedule::default()
+            },
+            selection: SelectionLayerConfig::renderers_fraction(),
         }
     }
 }
 
 impl OctreeGuideConfig {
-    fn tree_config(&self) -> TreeConfig {
+    pub(super) fn tree_config(&self) -> TreeConfig {
         TreeConfig {
             threshold: self.threshold,
-            decay: self.decay,
+            decay: self.schedule.decay,
             min_depth: self.min_depth,
             max_depth: self.max_depth,
         }
     }
 
-    fn validate(&self) -> Result<(), String> {
+    /// Checks the ranges.
+    pub fn validate(&self) -> Result<(), String> {
         if !(self.threshold > 0.0 && self.threshold < 1.0) {
             return Err(format!(
                 "octree threshold must lie in (0, 1), got {}",
                 self.threshold
             ));
         }
-        if !(self.decay >= 0.0 && self.decay <= 1.0) {
-            return Err(format!(
-                "octree decay must lie in [0, 1], got {}",
-                self.decay
-            ));
-        }
+        self.schedule.validate("octree")?;
+        self.selection.validate()?;
         if self.max_depth > MAX_SUPPORTED_DEPTH || self.min_depth > self.max_depth {
             return Err(format!(
                 "octree depths must satisfy min_depth <= max_depth <= {MAX_SUPPORTED_DEPTH}, got {} and {}",
@@ -112,34 +114,33 @@ impl TreeStats {
 /// samples the whole sphere and ignores the `normal` hint.
 #[derive(Clone, Debug)]
 pub struct FocalOctreeGuide {
-    conv: FocalTree,
-    div: FocalTree,
-    p_div: f64,
-    aabb: Aabb3,
-    config: OctreeGuideConfig,
-    strategy: SplatStrategy,
-    pending: PendingSplats,
+    pub(super) conv: FocalTree,
+    pub(super) div: FocalTree,
+    pub(super) p_div: f64,
+    pub(super) aabb: Aabb3,
+    pub(super) config: OctreeGuideConfig,
+    /// How the next iteration's segments are splatted (the schedule's phase).
+    pub(super) strategy: SplatStrategy,
+    pub(super) updates: u32,
+    /// The final, pruning build has run (the trees' minimum depth is 0 since).
+    pub(super) pruned: bool,
 }
 
-/// Splats recorded since the last build, per slot of the current trees.
+/// The octree's sampling distribution at a shading point: the point itself (every pdf is a ray
+/// march through both trees from it, with nothing to precompute).
+#[derive(Clone, Copy, Debug, Default)]
+pub struct OctreeDistribution {
+    x: Vec3,
+}
+
+/// The octree's training-sample storage: the segments splatted so far, per slot of the trees they
+/// were rendered with, and their counts.
 #[derive(Clone, Debug, Default)]
-struct PendingSplats {
+struct OctreeSamples {
     conv: Vec<f64>,
     div: Vec<f64>,
     /// Converging splats, diverging splats, dropped segments.
     counts: [u64; 3],
-    segments: u64,
-}
-
-impl PendingSplats {
-    fn for_trees(conv: &FocalTree, div: &FocalTree) -> Self {
-        Self {
-            conv: vec![0.0; conv.slot_count()],
-            div: vec![0.0; div.slot_count()],
-            counts: [0; 3],
-            segments: 0,
-        }
-    }
 }
 
 impl FocalOctreeGuide {
@@ -151,17 +152,15 @@ impl FocalOctreeGuide {
         config.validate()?;
         let aabb = aabb.padded("octree guide")?;
         let tree_config = config.tree_config();
-        let conv = FocalTree::new(aabb, tree_config);
-        let div = FocalTree::new(aabb, tree_config);
-        let pending = PendingSplats::for_trees(&conv, &div);
         Ok(Self {
-            conv,
-            div,
+            conv: FocalTree::new(aabb, tree_config),
+            div: FocalTree::new(aabb, tree_config),
             p_div: 0.5,
             aabb,
             config,
             strategy: SplatStrategy::Ray,
-            pending,
+            updates: 0,
+            pruned: false,
         })
     }
 
@@ -180,11 +179,6 @@ impl FocalOctreeGuide {
         self.p_div
     }
 
-    /// The (padded) box both trees cover.
-    pub fn aabb(&self) -> Aabb3 {
-        self.aabb
-    }
-
     /// The user parameters.
     pub fn config(&self) -> OctreeGuideConfig {
         self.config
@@ -193,6 +187,16 @@ impl FocalOctreeGuide {
     /// The splatting strategy of the current schedule phase.
     pub fn strategy(&self) -> SplatStrategy {
         self.strategy
+    }
+
+    /// The guide pdf from `x` in `f32` (0 where not finite).
+    fn pdf_from(&self, x: Vec3, d: Vec3) -> f32 {
+        let pdf = self.pdf_f64(x, d) as f32;
+        if pdf.is_finite() {
+            pdf
+        } else {
+            0.0
+        }
     }
 
     /// The guide pdf in `f64`: (1 − p_div)·p_conv(x, ω) + p_div·p_div_tree(x, −ω).
@@ -286,61 +290,46 @@ impl FocalOctreeGuide {
         (conv, div, counts)
     }
 
-    /// Decodes a snapshot written by [`GuidingDistribution::save`].
-    pub fn load(bytes: &[u8]) -> Result<Self, String> {
-        let snapshot: Snapshot = postcard::from_bytes(bytes)
-            .map_err(|e| format!("not an octree guide snapshot: {e}"))?;
-        check_snapshot_header(
-            "octree guide",
-            snapshot.magic,
-            SNAPSHOT_MAGIC,
-            snapshot.version,
-            SNAPSHOT_VERSION,
-        )?;
-        snapshot.config.validate()?;
-        let aabb = Aabb3 {
-            min: Vec3::from_array(snapshot.aabb_min),
-            max: Vec3::from_array(snapshot.aabb_max),
-        };
-        if aabb.padded("octree guide")? != aabb {
-            return Err("octree guide snapshot has a degenerate box".into());
+    /// Decodes a snapshot written by [`GuidingField::save`], with `config` (the snapshot holds the
+    /// model alone). Errors name what is wrong, never panic.
+    pub fn load(bytes: &[u8], config: OctreeGuideConfig) -> Result<Self, String> {
+        decode_snapshot(bytes, config)
+    }
+
+    /// Splats the segments into `samples` with the current schedule phase's strategy.
+    fn splat_into(&self, samples: &mut OctreeSamples, segments: &[TrainingSegment]) {
+        let (conv, div, counts) = self.splat_segments(segments);
+        add_into(&mut samples.conv, &conv);
+        add_into(&mut samples.div, &div);
+        for (total, n) in samples.counts.iter_mut().zip(counts) {
+            *total += n;
         }
-        if !(0.0..=1.0).contains(&snapshot.p_div) {
-            return Err(format!(
-                "octree guide snapshot has an invalid p_div {}",
-                snapshot.p_div
-            ));
-        }
-        let strategy = if snapshot.narrowing {
-            SplatStrategy::RayWeighted
-        } else {
-            SplatStrategy::Ray
-        };
-        let conv = snapshot.conv.into_tree(aabb)?;
-        let div = snapshot.div.into_tree(aabb)?;
-        let pending = PendingSplats::for_trees(&conv, &div);
-        Ok(Self {
-            conv,
-            div,
-            p_div: snapshot.p_div,
-            aabb,
-            config: snapshot.config,
-            strategy,
-            pending,
-        })
     }
 }
 
-impl GuidingDistribution for FocalOctreeGuide {
+impl GuidingField for FocalOctreeGuide {
     fn name(&self) -> &'static str {
         "octree"
+    }
+
+    fn aabb(&self) -> Aabb3 {
+        self.aabb
+    }
+
+    /// Keeps the point; the octree ignores the `normal` hint (it samples the whole sphere).
+    #[inline]
+    fn init(&self, distribution: &mut SamplingDistribution, x: Vec3, _normal: Option<Vec3>) {
+        distribution.octree_mut().x = x;
     }
 
     /// `u[0]` picks the diverging tree with probability p_div and is rescaled to [0, 1) for reuse as the
     /// x-axis number of the hierarchical warp; `u[1]`, `u[2]` drive the y and z axes. (The original
     /// draws three fresh numbers after the tree choice; the rescaled number is uniform and independent
     /// of the choice, so the distribution is the same.)
-    fn sample(&self, x: Vec3, _normal: Option<Vec3>, u: [f32; 3]) -> Option<GuideSample> {
+    fn sample(&self, distribution: &SamplingDistribution, u: [f32; 3]) -> Option<GuideSample> {
+        let SamplingDistribution::Octree(OctreeDistribution { x }) = *distribution else {
+            return None;
+        };
         let mut u0 = u[0] as f64;
         let diverging = u0 < self.p_div;
         u0 = if diverging {
@@ -360,49 +349,49 @@ impl GuidingDistribution for FocalOctreeGuide {
         if direction == Vec3::ZERO {
             return None;
         }
-        let pdf = self.pdf(x, None, direction);
+        let pdf = self.pdf_from(x, direction);
         (pdf > 0.0 && pdf.is_finite()).then_some(GuideSample { direction, pdf })
     }
 
-    fn pdf(&self, x: Vec3, _normal: Option<Vec3>, d: Vec3) -> f32 {
-        let pdf = self.pdf_f64(x, d) as f32;
-        if pdf.is_finite() {
-            pdf
-        } else {
-            0.0
+    fn pdf(&self, distribution: &SamplingDistribution, direction: Vec3) -> f32 {
+        match *distribution {
+            SamplingDistribution::Octree(OctreeDistribution { x }) => self.pdf_from(x, direction),
+            _ => 0.0,
         }
     }
 
-    /// Splats the batch into the pending per-slot buffers with the strategy of the current iteration
-    /// (RAY, or RAY_WEIGHTED from iteration ⌊2N/3⌋); the trees themselves are untouched until `update`.
-    fn record(&mut self, segments: &[TrainingSegment]) {
-        let (conv, div, counts) = self.splat_segments(segments);
-        add_into(&mut self.pending.conv, &conv);
-        add_into(&mut self.pending.div, &div);
-        for (total, n) in self.pending.counts.iter_mut().zip(counts) {
-            *total += n;
-        }
-        self.pending.segments += segments.len() as u64;
+    fn new_samples(&self) -> SampleStorage {
+        let samples = OctreeSamples {
+            conv: vec![0.0; self.conv.slot_count()],
+            div: vec![0.0; self.div.slot_count()],
+            counts: [0; 3],
+        };
+        SampleStorage::new(self.name(), self.updates, samples)
     }
 
-    /// Adds the recorded splats, then builds both trees with the shared threshold
-    /// thr·(W_conv + W_div), sets p_div = W_div / (W_conv + W_div), and applies the decay and splatting
-    /// strategy of the iteration that follows (RAY_WEIGHTED and decay 0.25 from ⌊2N/3⌋). The build
-    /// before the final render prunes and resets the minimum depth.
-    fn update(&mut self, ctx: &UpdateContext) -> UpdateStats {
+    /// Splats the batch into the storage's per-slot buffers with the strategy of the current
+    /// iteration (RAY, or RAY_WEIGHTED once the schedule narrows); the trees themselves are untouched
+    /// until `update`.
+    fn add_samples(&self, samples: &mut SampleStorage, segments: &[TrainingSegment]) {
+        self.splat_into(samples.data_mut(self.updates, segments.len()), segments);
+    }
+
+    /// Adds the stored splats, then builds both trees with the shared threshold
+    /// thr·(W_conv + W_div), sets p_div = W_div / (W_conv + W_div), and applies the [`Schedule`]'s
+    /// decay and splatting strategy for the iteration that follows (RAY_WEIGHTED and decay 0.25 from
+    /// ⌊2N/3⌋). The build before the final render prunes and resets the minimum depth.
+    fn update(&mut self, samples: SampleStorage, ctx: &UpdateContext) -> UpdateStats {
         let start = Instant::now();
-        let narrowing_start = 2 * ctx.training_iterations / 3;
-        let pending = std::mem::take(&mut self.pending);
+        let (pending, segments) = samples.into_data::<OctreeSamples>(self.updates);
         let counts = pending.counts;
         self.conv.accumulate(&pending.conv);
         self.div.accumulate(&pending.div);
 
+        // The accumulators now hold the data up to this iteration: the build decays them for the next.
         let next_iteration = ctx.iteration + 1;
-        let decay = if next_iteration >= narrowing_start {
-            NARROWING_DECAY
-        } else {
-            self.config.decay
-        };
+        let schedule = self.config.schedule;
+        let decay = schedule.decay_before(next_iteration, ctx.training_iterations);
+        self.pruned |= ctx.final_build;
         for tree in [&mut self.conv, &mut self.div] {
             let config = tree.config_mut();
             config.decay = decay;
@@ -418,12 +407,12 @@ impl GuidingDistribution for FocalOctreeGuide {
         let div_report = self.div.build(t_abs, ctx.final_build);
 
         let splatted_with = self.strategy;
-        self.strategy = if next_iteration >= narrowing_start {
+        self.strategy = if schedule.narrows(next_iteration, ctx.training_iterations) {
             SplatStrategy::RayWeighted
         } else {
             SplatStrategy::Ray
         };
-        self.pending = PendingSplats::for_trees(&self.conv, &self.div);
+        self.updates += 1;
 
         let conv_stats = TreeStats::of(&self.conv);
         let div_stats = TreeStats::of(&self.div);
@@ -455,86 +444,23 @@ impl GuidingDistribution for FocalOctreeGuide {
             ("pruning".into(), ctx.final_build as u8 as f64),
         ];
         UpdateStats {
-            segments: pending.segments,
+            segments,
             model_size: (conv_stats.leaves + div_stats.leaves) as u64,
             seconds: start.elapsed().as_secs_f64(),
             details,
         }
     }
 
+    fn updates(&self) -> u32 {
+        self.updates
+    }
+
     fn save(&self) -> Vec<u8> {
-        let snapshot = Snapshot {
-            magic: SNAPSHOT_MAGIC,
-            version: SNAPSHOT_VERSION,
-            aabb_min: self.aabb.min.to_array(),
-            aabb_max: self.aabb.max.to_array(),
-            config: self.config,
-            narrowing: self.strategy == SplatStrategy::RayWeighted,
-            p_div: self.p_div,
-            conv: SavedTree::of(&self.conv),
-            div: SavedTree::of(&self.div),
-        };
-        postcard::to_stdvec(&snapshot).expect("serialising plain data cannot fail")
-    }
-}
-
-/// The versioned snapshot layout.
-#[derive(Serialize, Deserialize)]
-struct Snapshot {
-    magic: [u8; 8],
-    version: u32,
-    aabb_min: [f32; 3],
-    aabb_max: [f32; 3],
-    config: OctreeGuideConfig,
-    narrowing: bool,
-    p_div: f64,
-    conv: SavedTree,
-    div: SavedTree,
-}
-
-/// One tree in a snapshot, including its current (schedule-modified) configuration and accumulators so
-/// training can continue.
-#[derive(Serialize, Deserialize)]
-struct SavedTree {
-    config: TreeConfig,
-    nodes: Vec<[(u32, f32); 8]>,
-    accumulators: Vec<f64>,
-}
-
-impl SavedTree {
-    fn of(tree: &FocalTree) -> Self {
-        Self {
-            config: tree.config(),
-            nodes: tree
-                .nodes()
-                .iter()
-                .map(|n| n.map(|s| (s.index, s.density)))
-                .collect(),
-            accumulators: tree.accumulators().to_vec(),
-        }
+        encode_snapshot(self)
     }
 
-    fn into_tree(self, aabb: Aabb3) -> Result<FocalTree, String> {
-        let config = self.config;
-        OctreeGuideConfig {
-            threshold: config.threshold,
-            decay: config.decay,
-            min_depth: config.min_depth,
-            max_depth: config.max_depth,
-        }
-        .validate()?;
-        let nodes: Vec<Node> = self
-            .nodes
-            .iter()
-            .map(|n| n.map(|(index, density)| ChildSlot { index, density }))
-            .collect();
-        FocalTree::validate_parts(&nodes, &self.accumulators)?;
-        Ok(FocalTree::from_parts(
-            aabb,
-            config,
-            nodes,
-            self.accumulators,
-        ))
+    fn as_any(&self) -> &dyn Any {
+        self
     }
 }
 

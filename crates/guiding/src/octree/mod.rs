@@ -3,11 +3,12 @@
 //! the converging + diverging pair trained from path segments, [`load_nose`]/[`store_nose`] the authors'
 //! dump format.
 //!
-//! This is the baseline, kept faithful to the authors' code (`/work/shared/design/focal-guiding-octree.md`).
-//! Deviations, all leaving the learned distribution unchanged up to float rounding:
-//! - splats are applied in `update()` rather than during rendering (the model is read-only during an
-//!   iteration, so this is equivalent), in fixed-size chunks with per-chunk `f64` accumulators reduced
-//!   in chunk order (deterministic for any thread count) instead of f32 atomics;
+//! This is the baseline, kept faithful to the authors' code (`docs/design/octree.md`). Deviations, all
+//! leaving the learned distribution unchanged up to float rounding:
+//! - splats are gathered between render passes in the iteration's sample storage and added to the trees
+//!   in `update()`, rather than applied during rendering (the model is read-only during an iteration, so
+//!   this is equivalent), in fixed-size chunks with per-chunk `f64` accumulators reduced in chunk order
+//!   (deterministic for any thread count) instead of f32 atomics;
 //! - builds delete collapsed subtrees entirely (no orphaned nodes);
 //! - traversal is an exact per-child slab walk in `f64` instead of the Revelles walk;
 //! - the sample warp runs in `f64` and reuses the rescaled tree-choice number for the x axis;
@@ -15,10 +16,12 @@
 
 mod guide;
 mod nose;
+mod snapshot;
 mod tree;
 
-pub use guide::{FocalOctreeGuide, OctreeGuideConfig, TreeStats, NARROWING_DECAY, SPLAT_CHUNK};
+pub use guide::{FocalOctreeGuide, OctreeDistribution, OctreeGuideConfig, TreeStats, SPLAT_CHUNK};
 pub use nose::{load_nose, store_nose, NoseTree};
+pub use snapshot::OCTREE_SNAPSHOT_MAGIC;
 pub use tree::{
     lattice_plane, substitute_zero_components, BuildReport, ChildSlot, FocalTree, LeafHit,
     LeafInfo, Node, SplatStrategy, TreeConfig, ACCUMULATOR_FLOOR, MAX_SUPPORTED_DEPTH,

@@ -3,7 +3,7 @@
 
 use std::f64::consts::PI;
 
-use focal_guiding::gmm::{Gaussian3, Mixture, OriginModel, Sym3};
+use focal_guiding::gmm::{Gaussian3, Mixture, Sym3};
 use focal_guiding::{Aabb3, TrainingSegment, UpdateContext};
 use glam::{DVec3, Vec3};
 
@@ -78,53 +78,6 @@ pub fn random_mixture(
         .collect();
     let weights: Vec<f64> = (0..k).map(|_| 0.2 + rng.f64()).collect();
     Mixture::new(&weights, comps).unwrap()
-}
-
-/// `m` with a random origin model: per component an origin Gaussian around `center` (standard
-/// deviations in [0.1, 0.8]) and a random share, with floor β = `floor`.
-pub fn with_random_origins(rng: &mut Rng, m: Mixture, center: DVec3, floor: f64) -> Mixture {
-    let gaussians: Vec<Gaussian3> = (0..m.len())
-        .map(|_| {
-            let mut g = random_gaussian(rng, center, 0.1, 0.8);
-            // Spread the origin regions apart, so that the weights really change with x.
-            let shifted = g.mean() + rng.sphere() * 0.8;
-            g = Gaussian3::new(shifted, g.covariance()).unwrap();
-            g
-        })
-        .collect();
-    let shares: Vec<f64> = (0..m.len()).map(|_| 0.1 + rng.f64()).collect();
-    m.with_origins(OriginModel::new(gaussians, &shares, floor).unwrap())
-        .unwrap()
-}
-
-/// The weights of `m`'s components at shading point `x`, computed from the definition
-/// c_k(x) = (1 − β) W_k O_k(x) / Σ_j W_j O_j(x) + β π_k (π_k without an origin model; O_k the ν = 1
-/// Student-t density of the model's location and scale), independently of
-/// the library's factor code.
-pub fn oracle_weights(m: &Mixture, x: DVec3) -> Vec<f64> {
-    match m.origins() {
-        None => m.weights().to_vec(),
-        Some(o) => {
-            let terms: Vec<f64> = o
-                .shares()
-                .iter()
-                .zip(o.gaussians())
-                .map(|(w, g)| {
-                    // The ν = 1 Student-t density with location μ and scale matrix Σ of `g`.
-                    let d2 = g.mahalanobis_sq(x);
-                    let det = g.covariance().determinant();
-                    w / (std::f64::consts::PI.powi(2) * det.sqrt() * (1.0 + d2).powi(2))
-                })
-                .collect();
-            let sum: f64 = terms.iter().sum();
-            let beta = o.floor();
-            terms
-                .iter()
-                .zip(m.weights())
-                .map(|(t, p)| (1.0 - beta) * t / sum + beta * p)
-                .collect()
-        }
-    }
 }
 
 /// ∫_a^b f by adaptive Simpson to a relative accuracy `rel` of the total, starting from `panels`
@@ -223,6 +176,5 @@ pub fn segment_through(rng: &mut Rng, aabb: Aabb3, y: DVec3, w: f32) -> Training
         emitted: 0.0,
         emitter_pdf: 0.0,
         pixel_weight: 1.0,
-        throughput: 0.0,
     }
 }

@@ -1,5 +1,5 @@
 //! Guided unidirectional path tracing (focal path guiding, Rath et al. 2023 §5): at every non-delta vertex
-//! a one-sample mixture of BSDF sampling and a learned [`GuidingDistribution`] proposes the next direction,
+//! a one-sample mixture of BSDF sampling and a learned [`GuidingField`] proposes the next direction,
 //! next-event estimation is MIS-weighted against the mixture pdf, and the path's segments are recorded as
 //! training data for the next iteration.
 
@@ -14,7 +14,7 @@ use crate::ray::{offset_ray_origin, Ray};
 use crate::sampler::Sampler;
 use crate::scene::Scene;
 use focal_guiding::{
-    GuideVertex, GuidingDistribution, TrainingSegment, EXPLORATION_FRACTION,
+    GuidingField, SamplingDistribution, TrainingSegment, EXPLORATION_FRACTION,
     EXPLORATION_PROBABILITY,
 };
 use std::cell::Cell;
@@ -80,7 +80,7 @@ pub struct GuidedSettings {
     /// guides that ask for none (the octree) or when `learned_selection` is off.
     pub guide_fraction: f32,
     /// Use the guide's own selection probability where it has one
-    /// ([`GuidingDistribution::selection_probability`]: the GMM's fixed or learned fraction) instead of
+    /// ([`GuidingField::selection_probability`]: the GMM's fixed or learned fraction) instead of
     /// `guide_fraction`; off when the user gave a fraction.
     pub learned_selection: bool,
     /// Restrict guide sampling to the shading hemisphere at opaque (non-transmissive) BSDFs, if the
@@ -97,10 +97,6 @@ pub struct GuidedSettings {
     /// were such chains of 5–10 vertices. Splitting averages their continuations instead (a weight
     /// window as Vorba and Křivánek's, with the albedo product standing in for the learned adjoint).
     pub split: bool,
-    /// Also record the segments that carried no contribution (weight 0), for guides that count them
-    /// ([`GuidingDistribution::wants_empty_segments`]).
-    #[serde(default)]
-    pub record_empty: bool,
 }
 
 impl Default for GuidedSettings {
@@ -113,7 +109,6 @@ impl Default for GuidedSettings {
             learned_selection: true,
             hemisphere_hint: true,
             split: true,
-            record_empty: false,
         }
     }
 }
@@ -125,7 +120,7 @@ pub struct GuidedPathIntegrator<'g> {
     /// Settings.
     pub settings: GuidedSettings,
     /// The guide of this iteration (read-only while rendering).
-    pub guide: Option<&'g dyn GuidingDistribution>,
+    pub guide: Option<&'g dyn GuidingField>,
     /// Record training segments.
     pub record: bool,
 }
@@ -136,7 +131,7 @@ pub struct GuidedPathIntegrator<'g> {
 #[derive(Default)]
 struct PathScratch {
     pending: Vec<PendingSegment>,
-    vertex: GuideVertex,
+    vertex: SamplingDistribution,
     branches: Vec<Branch>,
 }
 
@@ -193,15 +188,15 @@ fn leave_glass(pending: &mut [PendingSegment], from: usize, d_out: glam::Vec3) {
 /// The guide of one vertex and the probability α of sampling it rather than the BSDF.
 #[derive(Clone, Copy)]
 struct VertexGuide<'g> {
-    guide: &'g dyn GuidingDistribution,
+    guide: &'g dyn GuidingField,
     alpha: f32,
 }
 
 impl VertexGuide<'_> {
     /// The mixture pdf of direction `wo_world` and the guide's own pdf of it.
     #[inline]
-    fn mixture_pdf(&self, vertex: &GuideVertex, p_bsdf: f32, wo_world: glam::Vec3) -> (f32, f32) {
-        let p_guide = self.guide.pdf_at(vertex, wo_world);
+    fn mixture_pdf(&self, vertex: &SamplingDistribution, p_bsdf: f32, wo_world: glam::Vec3) -> (f32, f32) {
+        let p_guide = self.guide.pdf(vertex, wo_world);
         (self.alpha * p_guide + (1.0 - self.alpha) * p_bsdf, p_guide)
     }
 }
@@ -400,7 +395,7 @@ impl GuidedPathIntegrator<'_> {
                 let hint = (self.settings.hemisphere_hint && !bsdf.has_transmission())
                     .then(|| si.sh_frame.n * wi.z.signum());
                 if let Some(g) = guide {
-                    g.guide.prepare(si.p, hint, &mut vertex);
+                    g.guide.init(&mut vertex, si.p, hint);
                 }
 
                 // Next-event estimation, MIS-weighted against the full sampling mixture.
@@ -444,7 +439,6 @@ impl GuidedPathIntegrator<'_> {
                             emitted: 0.0,
                             emitter_pdf: 0.0,
                             pixel_weight: 1.0,
-                            throughput: throughput.element_sum() / 3.0,
                         },
                         result_before: result,
                         in_glass: false,
@@ -551,7 +545,7 @@ impl GuidedPathIntegrator<'_> {
                     continue;
                 }
                 let c = (result - p.result_before).element_sum() / 3.0;
-                if c > 0.0 && c.is_finite() || self.settings.record_empty && c == 0.0 {
+                if c > 0.0 && c.is_finite() {
                     let mut seg = p.segment;
                     seg.weight = c;
                     training.push(seg);
@@ -622,7 +616,7 @@ impl Step {
 fn sample_direction(
     bsdf: &Bsdf,
     guide: Option<VertexGuide<'_>>,
-    vertex: &GuideVertex,
+    vertex: &SamplingDistribution,
     ctx: &BsdfContext,
     si: &crate::geometry::SurfaceInteraction,
     wi: glam::Vec3,
@@ -681,7 +675,7 @@ fn sample_direction(
     } else {
         // Guide branch: the rescaled selection number is uniform again and drives the guide's choice.
         let u0 = (u_select / alpha).min(1.0 - f32::EPSILON / 2.0);
-        let gs = guide.guide.sample_at(vertex, [u0, u2.x, u2.y])?;
+        let gs = guide.guide.sample(vertex, [u0, u2.x, u2.y])?;
         let wo = si.to_local(gs.direction);
         let f = bsdf.eval(ctx, wi, wo);
         if f == Rgb::ZERO {

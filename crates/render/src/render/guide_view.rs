@@ -3,13 +3,13 @@
 use crate::camera::Camera;
 use crate::color::srgb_to_linear;
 use crate::film::{FilmSpec, Image};
-use focal_guiding::GuidingDistribution;
+use focal_guiding::GuidingField;
 use glam::Vec2;
 
 /// The guide's directional pdf at the camera position for the central ray of every pixel (Rath et al.'s
 /// `d.pdf` AOV): bright where the learned density lies along the line of sight, so focal points and the
 /// paths' crossing regions show up as they would be seen through the lens.
-pub fn guide_pdf_image(camera: &Camera, spec: &FilmSpec, guide: &dyn GuidingDistribution) -> Image {
+pub fn guide_pdf_image(camera: &Camera, spec: &FilmSpec, guide: &dyn GuidingField) -> Image {
     let (w, h) = (spec.crop_size.x, spec.crop_size.y);
     let mut image = Image::new(w, h);
     for y in 0..h {
@@ -19,7 +19,7 @@ pub fn guide_pdf_image(camera: &Camera, spec: &FilmSpec, guide: &dyn GuidingDist
                 (spec.crop_offset.y + y) as f32 + 0.5,
             );
             let ray = camera.generate_ray(pos, Vec2::splat(0.5));
-            let p = guide.pdf(ray.o, None, ray.d);
+            let p = guide.pdf_at(ray.o, None, ray.d);
             let p = if p.is_finite() { p.max(0.0) } else { 0.0 };
             image.rgb[(y * w + x) as usize] = [p; 3];
         }
@@ -65,20 +65,19 @@ pub fn viridis(t: f32) -> [f32; 3] {
 
 /// A picture of the structure a guide learned, and a one-line caption: for a Gaussian mixture its
 /// components' 2σ ellipsoids projected over `render` (see [`super::guide_ellipses`]), for the octree
-/// the leaves' density on the default slice (see [`super::octree_slice`]). The concrete model is
-/// recovered from the guide's own snapshot, so this works for any boxed guide. `None` for an unknown
-/// guide.
+/// the leaves' density on the default slice (see [`super::octree_slice`]). The concrete model is found
+/// behind any layers ([`GuidingField::as_any`]). `None` for an unknown guide.
 pub fn guide_structure_image(
     camera: &Camera,
     spec: &FilmSpec,
-    guide: &dyn GuidingDistribution,
+    guide: &dyn GuidingField,
     render: &Image,
 ) -> Option<(Image, String)> {
     use super::{guide_ellipses, octree_slice};
-    match guide.name() {
-        "gmm" => {
-            let g = focal_guiding::GmmGuide::load(&guide.save()).ok()?;
-            let comps = guide_ellipses::project_components(camera, spec, &g);
+    let any = guide.as_any();
+    if let Some(g) = any.downcast_ref::<focal_guiding::GmmGuide>() {
+        {
+            let comps = guide_ellipses::project_components(camera, spec, g);
             let caption = format!(
                 "{} Gaussian components ({} converging, {} diverging, p_div {:.2}): 2σ ellipsoids \
                  projected through the camera, colour by weight (viridis, yellow = heaviest)",
@@ -89,11 +88,11 @@ pub fn guide_structure_image(
             );
             Some((guide_ellipses::ellipse_overlay(render, &comps), caption))
         }
-        "octree" => {
-            let g = focal_guiding::octree::FocalOctreeGuide::load(&guide.save()).ok()?;
+    } else if let Some(g) = any.downcast_ref::<focal_guiding::octree::FocalOctreeGuide>() {
+        {
             let view = camera.to_world().transform_vector3(glam::Vec3::Z);
-            let plane = octree_slice::default_plane(&g, view);
-            let slice = octree_slice::octree_slice(&g, plane, 512);
+            let plane = octree_slice::default_plane(g, view);
+            let slice = octree_slice::octree_slice(g, plane, 512);
             let axis = ["x", "y", "z"];
             let caption = format!(
                 "octree leaf density on the slice {} = {:.4} (through the densest leaf; image x = {}, \
@@ -107,6 +106,7 @@ pub fn guide_structure_image(
             );
             Some((octree_slice::octree_slice_picture(&slice), caption))
         }
-        _ => None,
+    } else {
+        None
     }
 }

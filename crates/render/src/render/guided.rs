@@ -31,7 +31,7 @@ use crate::integrator::{
     GuidedPathIntegrator, GuidedSettings, PathIntegrator, PathSettings, Roulette,
 };
 use crate::scene::Scene;
-use focal_guiding::{GuidingDistribution, UpdateContext, UpdateStats};
+use focal_guiding::{GuidingField, UpdateContext, UpdateStats};
 use std::time::{Duration, Instant};
 
 /// Pixel samples per pass at most during training, bounding the memory of one pass's segments.
@@ -349,7 +349,7 @@ pub fn render_guided(
     scene: &Scene,
     camera: &Camera,
     spec: &FilmSpec,
-    mut guide: Option<&mut dyn GuidingDistribution>,
+    mut guide: Option<&mut dyn GuidingField>,
     settings: &GuidedRenderSettings,
     progress: &(dyn Fn(Progress) + Sync),
 ) -> GuidedOutput {
@@ -452,6 +452,11 @@ pub fn render_guided(
         let mut moments = [0.0f64; 2];
         let mut contribution_sums = [0.0f64; 2];
         let mut record_s = 0.0;
+        // The iteration's training samples, kept apart from the guide until its update.
+        let mut samples = match (&guide, training) {
+            (Some(g), true) => Some(g.new_samples()),
+            _ => None,
+        };
         let mut pass_spp = 1u32;
         loop {
             let spp_left = max_total_spp.saturating_sub(total_spp + runner.spp_done());
@@ -470,11 +475,7 @@ pub fn render_guided(
                 runner.run_pass(&unguided, count, &on_tile)
             } else {
                 let integrator = GuidedPathIntegrator {
-                    settings: GuidedSettings {
-                        record_empty: training
-                            && guide.as_deref().is_some_and(|g| g.wants_empty_segments()),
-                        ..settings.integrator
-                    },
+                    settings: settings.integrator,
                     guide: if guided { guide.as_deref() } else { None },
                     record: training,
                 };
@@ -501,9 +502,9 @@ pub fn render_guided(
                         }
                     }
                 }
-                if let Some(g) = guide.as_deref_mut() {
+                if let (Some(g), Some(samples)) = (guide.as_deref(), samples.as_mut()) {
                     let t = Instant::now();
-                    runner.install(|| g.record(&batch));
+                    runner.install(|| g.add_samples(samples, &batch));
                     record_s += t.elapsed().as_secs_f64();
                 }
             }
@@ -579,15 +580,15 @@ pub fn render_guided(
             }
         }
         // A render that has just given up guiding needs no more guide.
-        let update = match (&mut guide, training && !fell_back(&fallback)) {
-            (Some(g), true) => {
+        let update = match (&mut guide, samples, training && !fell_back(&fallback)) {
+            (Some(g), Some(samples), true) => {
                 let ctx = UpdateContext {
                     iteration: index,
                     training_iterations,
                     final_build: index + 1 == training_iterations,
                     threads: runner.threads(),
                 };
-                Some(runner.install(|| g.update(&ctx)))
+                Some(runner.install(|| g.update(samples, &ctx)))
             }
             _ => None,
         };

@@ -8,6 +8,7 @@
 use super::guide_view::false_colour_log;
 use crate::film::Image;
 use focal_guiding::octree::{FocalOctreeGuide, FocalTree};
+use focal_guiding::GuidingField;
 use glam::{DVec3, Vec3};
 
 /// Where a slice lies.

@@ -342,7 +342,7 @@ impl Builder<'_> {
                     }
                     let o = &mut spec.params.octree;
                     o.threshold = i.float_or("orth.threshold", o.threshold)?;
-                    o.decay = i.float_or("orth.decay", o.decay)?;
+                    o.schedule.decay = i.float_or("orth.decay", o.schedule.decay)?;
                     o.min_depth = i.int_or("orth.min_depth", o.min_depth as i64)?.max(0) as u32;
                     o.max_depth = i.int_or("orth.max_depth", o.max_depth as i64)?.max(0) as u32;
                 }

@@ -1,39 +1,5 @@
-//! A learned, spatially varying probability of sampling the guide rather than the BSDF.
-//!
-//! A fixed one-sample mixture α·p_guide + (1 − α)·p_bsdf (Rath et al.: α = 0.5) wastes half the samples
-//! wherever the guide is poor (a directly lit floor, a glossy lobe the guide does not know) and half
-//! wherever it is good (a point that only sees its light through a pinhole). Every guided training
-//! segment was sampled with a known mixture p₀ = α₀·p_g + (1 − α₀)·p_b and carries its contribution c
-//! (which holds 1/p₀), so by importance reweighting Σ c²·p₀/p_a estimates, for any other α = a, the
-//! second moment the same vertices would have had with p_a = a·p_g + (1 − a)·p_b: unbiased, from data
-//! the renderer records anyway (with the emission at x_{k+1} reweighted together with next-event
-//! estimation, and each segment weighted by its pixel: see
-//! [`TrainingSegment::second_moment_with_fraction`]). [`SelectionGrid`] accumulates these sums for a
-//! few candidate values in the cells of a hierarchy of regular grids over the scene box, and per cell
-//! picks the candidate with the least second moment, from the finest level that holds enough segments.
-//!
-//! α = 0 saves the guide's whole cost at a vertex (no hemisphere masses, no pdf), so it is chosen
-//! whenever its second moment is within [`SelectionConfig::skip_margin`] of the best. The guide's pdf is
-//! then unknown at those vertices, so a renderer explores: at a random [`EXPLORATION_PROBABILITY`]
-//! share of them it samples with α = [`EXPLORATION_FRACTION`], and only those segments teach the cell.
-//! A random per-vertex α keeps the estimator unbiased: for each α the one-sample MIS weights sum to 1.
-//!
-//! A second rule ([`SelectionRule::ContributionShare`]) needs first moments only. Split the directions
-//! at a vertex into those the guide covers and the rest; if the integrand f·L carries a share s of its
-//! integral in the first and each part is shaped like the pdf that covers it, the one-sample mixture's
-//! second moment is s²/α + (1 − s)²/(1 − α), least at α = s. Each guided segment estimates s without
-//! reweighting: E[c·h] / E[c] with h = p_g/(p_g + p_b) the share of its direction the guide covers
-//! (c holds 1/p₀, so Σ c·h over the cell's segments estimates the integral of f·L·h). First moments
-//! are far less at the mercy of a few huge samples than second ones; the chosen α is clamped to
-//! [`SelectionConfig::min_fraction`, `SelectionConfig::max_fraction`]. The model ignores how spiky
-//! each part is: where the guide-covered light is a caustic that even the guide finds rarely (the
-//! shaded lights' mirrors), it chooses too little.
-//!
-//! The GMM guide uses it for the final render only (`GmmConfig::learn_selection`, on by default with the
-//! share rule and a least fraction of 0.4; training iterations keep the fixed fraction). With the second-
-//! moment rule it did not beat the fixed fraction on focal scenes at equal time, with the absolute
-//! second moment (dominated by bright pixels) nor with the emission- and pixel-weighted one (see the GMM
-//! config).
+//! [`SelectionGrid`]: the learned guide fraction over a hierarchy of regular grids (see the module
+//! documentation of [`crate::selection`]).
 
 use crate::{Aabb3, TrainingSegment};
 use glam::Vec3;
@@ -159,18 +125,32 @@ pub struct SelectionSummary {
 }
 
 /// The learned guide fraction over a scene box (see the module documentation).
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[derive(Clone, Debug, PartialEq)]
 pub struct SelectionGrid {
     config: SelectionConfig,
+    model: SavedGrid,
+}
+
+/// A grid's model as a snapshot holds it (its configuration comes from the loader).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub(crate) struct SavedGrid {
     min: [f32; 3],
     /// Finest cells per unit length, per axis.
     cells_per_unit: [f32; 3],
-    /// All levels' cells, coarsest first (level l starts at `cells_before_level(l)`).
+    /// All levels' cells, coarsest first (level l starts at `cells_before_level(l)`): the sums of the
+    /// segments of earlier iterations, decayed at every update.
     sums: Vec<CellSums>,
     /// The chosen fraction per finest cell; empty until an update saw data.
     table: Vec<f32>,
-    /// Segments taken since the last update.
-    pending: u64,
+}
+
+/// A grid's part of an iteration's training-sample storage: its sums, continued from the grid's
+/// decayed ones segment by segment (so that they add in the order they always did), and the number of
+/// segments taken.
+#[derive(Clone, Debug, PartialEq)]
+pub struct SelectionSamples {
+    sums: Vec<CellSums>,
+    taken: u64,
 }
 
 impl SelectionGrid {
@@ -182,12 +162,33 @@ impl SelectionGrid {
         let extent = aabb.max - aabb.min;
         Ok(Self {
             config,
-            min: aabb.min.to_array(),
-            cells_per_unit: (Vec3::splat(res) / extent).to_array(),
-            sums: vec![CellSums::default(); cells_before_level(config.levels)],
-            table: Vec::new(),
-            pending: 0,
+            model: SavedGrid {
+                min: aabb.min.to_array(),
+                cells_per_unit: (Vec3::splat(res) / extent).to_array(),
+                sums: vec![CellSums::default(); cells_before_level(config.levels)],
+                table: Vec::new(),
+            },
         })
+    }
+
+    /// The grid of a snapshot's model, checked against `config`.
+    pub(crate) fn from_saved(config: SelectionConfig, model: SavedGrid) -> Result<Self, String> {
+        let grid = Self { config, model };
+        grid.validate()?;
+        Ok(grid)
+    }
+
+    /// The model, for a snapshot.
+    pub(crate) fn saved(&self) -> &SavedGrid {
+        &self.model
+    }
+
+    /// An empty part of a training-sample storage for this grid.
+    pub fn new_samples(&self) -> SelectionSamples {
+        SelectionSamples {
+            sums: self.model.sums.clone(),
+            taken: 0,
+        }
     }
 
     /// The parameters.
@@ -197,7 +198,7 @@ impl SelectionGrid {
 
     /// True once an update has chosen fractions.
     pub fn is_trained(&self) -> bool {
-        !self.table.is_empty()
+        !self.model.table.is_empty()
     }
 
     /// Cells per axis of the finest level.
@@ -209,7 +210,8 @@ impl SelectionGrid {
     #[inline]
     fn finest_cell(&self, x: Vec3) -> [u32; 3] {
         let res = self.finest_resolution();
-        let rel = (x - Vec3::from_array(self.min)) * Vec3::from_array(self.cells_per_unit);
+        let rel =
+            (x - Vec3::from_array(self.model.min)) * Vec3::from_array(self.model.cells_per_unit);
         // `as` saturates NaN to 0, so a non-finite point lands in a valid cell.
         std::array::from_fn(|a| (rel[a].max(0.0) as u32).min(res - 1))
     }
@@ -232,18 +234,19 @@ impl SelectionGrid {
     /// and under the share rule at a `glossy` vertex (which does not teach it either: see `record`).
     #[inline]
     pub fn fraction_at(&self, x: Vec3, glossy: bool) -> Option<f32> {
-        if self.table.is_empty() || (glossy && self.config.rule == SelectionRule::ContributionShare)
+        if self.model.table.is_empty()
+            || (glossy && self.config.rule == SelectionRule::ContributionShare)
         {
             return None;
         }
         let res = self.finest_resolution() as usize;
         let [i, j, k] = self.finest_cell(x).map(|v| v as usize);
-        Some(self.table[(k * res + j) * res + i])
+        Some(self.model.table[(k * res + j) * res + i])
     }
 
-    /// Takes a batch of training segments. Only guided ones (`guide_fraction` > 0) with a positive
-    /// contribution and valid pdfs teach it: they alone know the guide's pdf of their direction.
-    pub fn record(&mut self, segments: &[TrainingSegment]) {
+    /// Adds a batch of training segments to `samples`. Only guided ones (`guide_fraction` > 0) with a
+    /// positive contribution and valid pdfs teach it: they alone know the guide's pdf of their direction.
+    pub fn record(&self, samples: &mut SelectionSamples, segments: &[TrainingSegment]) {
         for s in segments {
             if !(s.guide_fraction > 0.0 && s.weight > 0.0 && s.origin.is_finite()) {
                 continue;
@@ -259,7 +262,7 @@ impl SelectionGrid {
                     continue;
                 }
                 let covered = w * pg / (pg + pb);
-                self.add(s.origin, |sums| {
+                self.add(samples, s.origin, |sums| {
                     sums.contribution += w;
                     sums.covered += covered;
                 });
@@ -279,7 +282,7 @@ impl SelectionGrid {
             if !terms.iter().any(|t| t.is_finite()) {
                 continue;
             }
-            self.add(s.origin, |sums| {
+            self.add(samples, s.origin, |sums| {
                 for (m, t) in sums.moments.iter_mut().zip(&terms) {
                     *m += t;
                 }
@@ -288,12 +291,17 @@ impl SelectionGrid {
     }
 
     /// Counts one segment at `origin` in its cell of every level and adds its terms there.
-    fn add(&mut self, origin: Vec3, mut terms: impl FnMut(&mut CellSums)) {
-        self.pending += 1;
+    fn add(
+        &self,
+        samples: &mut SelectionSamples,
+        origin: Vec3,
+        mut terms: impl FnMut(&mut CellSums),
+    ) {
+        samples.taken += 1;
         let cell = self.finest_cell(origin);
         for level in 0..self.config.levels {
             let idx = self.cell_index(cell, level);
-            let sums = &mut self.sums[idx];
+            let sums = &mut samples.sums[idx];
             sums.count += 1.0;
             terms(sums);
         }
@@ -327,24 +335,31 @@ impl SelectionGrid {
         }
     }
 
-    /// Chooses every finest cell's fraction from the sums so far, then decays the sums so that the
-    /// next iteration's segments count more. Deterministic: the sums are added in batch order.
-    pub fn update(&mut self) -> SelectionSummary {
+    /// Chooses every finest cell's fraction from the sums so far (`samples`, made by
+    /// [`SelectionGrid::new_samples`] since the last update), then decays the sums so that the next
+    /// iteration's segments count more. Deterministic: the sums are added in batch order.
+    pub fn update(&mut self, samples: SelectionSamples) -> SelectionSummary {
+        assert_eq!(
+            samples.sums.len(),
+            self.model.sums.len(),
+            "selection samples of another grid"
+        );
+        self.model.sums = samples.sums;
         let res = self.finest_resolution();
         let levels = self.config.levels;
         let mut table = Vec::with_capacity((res * res * res) as usize);
         let (mut total, mut weighted, mut skipped, mut coarse) = (0.0, 0.0, 0.0, 0.0);
-        let any = self.sums[0].count > 0.0;
+        let any = self.model.sums[0].count > 0.0;
         for k in 0..res {
             for j in 0..res {
                 for i in 0..res {
                     let c = [i, j, k];
-                    let own = self.sums[self.cell_index(c, levels - 1)].count;
+                    let own = self.model.sums[self.cell_index(c, levels - 1)].count;
                     let level = (0..levels).rev().find(|&l| {
-                        self.sums[self.cell_index(c, l)].count >= self.config.min_segments
+                        self.model.sums[self.cell_index(c, l)].count >= self.config.min_segments
                     });
                     let alpha = match level {
-                        Some(l) => self.choose(&self.sums[self.cell_index(c, l)]),
+                        Some(l) => self.choose(&self.model.sums[self.cell_index(c, l)]),
                         None => self.config.default_fraction,
                     };
                     total += own;
@@ -360,9 +375,9 @@ impl SelectionGrid {
             }
         }
         if any {
-            self.table = table;
+            self.model.table = table;
         }
-        for s in &mut self.sums {
+        for s in &mut self.model.sums {
             s.count *= self.config.decay;
             s.contribution *= self.config.decay;
             s.covered *= self.config.decay;
@@ -371,8 +386,8 @@ impl SelectionGrid {
             }
         }
         let share = |v: f64| if total > 0.0 { v / total } else { 0.0 };
-        let summary = SelectionSummary {
-            segments: self.pending,
+        SelectionSummary {
+            segments: samples.taken,
             mean_fraction: if total > 0.0 {
                 weighted / total
             } else {
@@ -380,33 +395,28 @@ impl SelectionGrid {
             },
             skip_share: share(skipped),
             coarse_share: share(coarse),
-        };
-        self.pending = 0;
-        summary
+        }
     }
 
     /// Checks a decoded grid's consistency (lengths, finite values, fractions among the candidates).
     pub fn validate(&self) -> Result<(), String> {
         self.config.validate()?;
         let res = self.finest_resolution() as usize;
-        if self.sums.len() != cells_before_level(self.config.levels)
-            || !(self.table.is_empty() || self.table.len() == res * res * res)
+        let m = &self.model;
+        if m.sums.len() != cells_before_level(self.config.levels)
+            || !(m.table.is_empty() || m.table.len() == res * res * res)
         {
             return Err("selection grid has inconsistent lengths".into());
         }
-        let finite = self
-            .min
-            .iter()
-            .chain(&self.cells_per_unit)
-            .all(|v| v.is_finite())
-            && self.cells_per_unit.iter().all(|&v| v > 0.0);
+        let finite = m.min.iter().chain(&m.cells_per_unit).all(|v| v.is_finite())
+            && m.cells_per_unit.iter().all(|&v| v > 0.0);
         if !finite {
             return Err("selection grid has a degenerate box".into());
         }
-        if !self.table.iter().all(|a| (0.0..1.0).contains(a)) {
+        if !m.table.iter().all(|a| (0.0..1.0).contains(a)) {
             return Err("selection grid holds a fraction outside [0, 1)".into());
         }
-        if !self.sums.iter().all(|s| {
+        if !m.sums.iter().all(|s| {
             s.count >= 0.0
                 && s.moments.iter().all(|m| *m >= 0.0)
                 && s.contribution >= 0.0
