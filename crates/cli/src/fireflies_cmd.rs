@@ -74,7 +74,8 @@ pub fn run(a: FirefliesArgs) -> Result<()> {
     };
     let bytes =
         std::fs::read(guide_path).with_context(|| format!("reading {}", guide_path.display()))?;
-    let guide = load_guide(&bytes, &spec.params).map_err(|e| anyhow::anyhow!("{}: {e}", guide_path.display()))?;
+    let guide = load_guide(&bytes, &spec.params)
+        .map_err(|e| anyhow::anyhow!("{}: {e}", guide_path.display()))?;
     let reference = Image::read_exr(&a.reference)
         .with_context(|| format!("reading {}", a.reference.display()))?;
     let settings = RenderSettings {

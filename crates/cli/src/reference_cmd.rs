@@ -103,9 +103,10 @@ pub fn run(a: ReferenceArgs) -> Result<()> {
         None => Vec::new(),
     };
     let guide = match &a.load_guide {
-        Some(p) => {
-            Some(load_guide(&guide_bytes, &focal_render::guide::GuideParams::default()).map_err(|e| anyhow::anyhow!("{}: {e}", p.display()))?)
-        }
+        Some(p) => Some(
+            load_guide(&guide_bytes, &focal_render::guide::GuideParams::default())
+                .map_err(|e| anyhow::anyhow!("{}: {e}", p.display()))?,
+        ),
         None => None,
     };
     let guided_settings = GuidedSettings {

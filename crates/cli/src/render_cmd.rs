@@ -495,7 +495,10 @@ where
         let known: Vec<String> = fields.keys().map(|k| format!("{prefix}{k}")).collect();
         fields = match fields.get_mut(part).and_then(|v| v.as_object_mut()) {
             Some(group) => group,
-            None => bail!("unknown parameter group `{prefix}{part}` (known: {})", known.join(", ")),
+            None => bail!(
+                "unknown parameter group `{prefix}{part}` (known: {})",
+                known.join(", ")
+            ),
         };
         prefix = format!("{prefix}{part}.");
     };

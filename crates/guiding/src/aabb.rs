@@ -36,4 +36,3 @@ impl Aabb3 {
         Ok(out)
     }
 }
-

@@ -3,7 +3,7 @@
 //! A guide learns where contribution-carrying path segments cross (pinholes, lens and caustic foci,
 //! narrow gaps) from training segments recorded by a renderer, and proposes directions towards those
 //! regions from any shading point, with an exact solid-angle pdf for MIS. The interface follows Open
-//! PGL's (see `docs/design/guiding-api.md`):
+//! PGL's:
 //!
 //! - a [`GuidingField`] is the learned model, queried read-only while rendering and rebuilt by
 //!   [`GuidingField::update`] between iterations; it saves a versioned snapshot of the model;
@@ -37,7 +37,7 @@ pub use segment::TrainingSegment;
 pub use selection::{
     SelectionConfig, SelectionGrid, SelectionLayer, SelectionLayerConfig, SelectionRule,
     SelectionSamples, SelectionSummary, EXPLORATION_FRACTION, EXPLORATION_PROBABILITY,
-    SELECTION_CANDIDATES, GUIDE_SNAPSHOT_MAGIC,
+    GUIDE_SNAPSHOT_MAGIC, SELECTION_CANDIDATES,
 };
 pub use snapshot::SnapshotHeader;
 pub use storage::SampleStorage;

@@ -50,4 +50,3 @@ pub struct TrainingSegment {
     /// second moments weigh every pixel's relative error alike, as relMSE does (1 when unknown).
     pub pixel_weight: f32,
 }
-

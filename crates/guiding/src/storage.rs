@@ -48,9 +48,9 @@ impl SampleStorage {
         self.check_model(model);
         self.segments += added as u64;
         let owner = self.owner;
-        self.data
-            .downcast_mut::<T>()
-            .unwrap_or_else(|| panic!("a sample storage of the {owner} guide given to another guide"))
+        self.data.downcast_mut::<T>().unwrap_or_else(|| {
+            panic!("a sample storage of the {owner} guide given to another guide")
+        })
     }
 
     /// The contents and the segment count, for the update of the field that made it (with `model`
@@ -58,10 +58,9 @@ impl SampleStorage {
     pub fn into_data<T: Any + Send>(self, model: u32) -> (T, u64) {
         self.check_model(model);
         let owner = self.owner;
-        let data = self
-            .data
-            .downcast::<T>()
-            .unwrap_or_else(|_| panic!("a sample storage of the {owner} guide given to another guide"));
+        let data = self.data.downcast::<T>().unwrap_or_else(|_| {
+            panic!("a sample storage of the {owner} guide given to another guide")
+        });
         (*data, self.segments)
     }
 

@@ -110,7 +110,10 @@ fn untrained_guide_samples_nothing() {
     assert_eq!(g.name(), "gmm");
     assert!(!g.is_trained());
     assert_eq!(g.sample_at(Vec3::ZERO, None, [0.3, 0.4, 0.5]), None);
-    assert_eq!(g.sample_at(Vec3::ZERO, Some(Vec3::Z), [0.3, 0.4, 0.5]), None);
+    assert_eq!(
+        g.sample_at(Vec3::ZERO, Some(Vec3::Z), [0.3, 0.4, 0.5]),
+        None
+    );
     assert_eq!(g.pdf_at(Vec3::ZERO, None, Vec3::X), 0.0);
 }
 

@@ -138,7 +138,10 @@ fn train_foci(noise: f64, iterations: u32, n: usize, seed: u64) -> GmmGuide {
     let mut guide = GmmGuide::new(scene_box(), GmmConfig::default()).unwrap();
     let mut rng = Rng(seed);
     for i in 0..iterations {
-        let stats = guide.update_with(&focal_batch(&mut rng, n, noise), &context(i, 3 * iterations));
+        let stats = guide.update_with(
+            &focal_batch(&mut rng, n, noise),
+            &context(i, 3 * iterations),
+        );
         assert_eq!(detail(&stats, "narrowing"), 0.0);
     }
     guide
@@ -488,7 +491,12 @@ fn recording_does_not_change_the_model_until_update() {
     let snapshot = |g: &GmmGuide| -> Vec<_> {
         queries
             .iter()
-            .map(|(x, d, u)| (g.pdf_at(*x, None, *d).to_bits(), g.sample_at(*x, Some(*d), *u)))
+            .map(|(x, d, u)| {
+                (
+                    g.pdf_at(*x, None, *d).to_bits(),
+                    g.sample_at(*x, Some(*d), *u),
+                )
+            })
             .collect()
     };
     let before = snapshot(&guide);
@@ -555,7 +563,10 @@ fn save_load_round_trip_is_bit_identical() {
         let x = rng.in_box(DVec3::splat(-1.5), DVec3::splat(1.5)).as_vec3();
         let d = rng.sphere().as_vec3();
         let n = Some(rng.sphere().as_vec3()).filter(|_| rng.f64() < 0.5);
-        assert_eq!(loaded.pdf_at(x, n, d).to_bits(), guide.pdf_at(x, n, d).to_bits());
+        assert_eq!(
+            loaded.pdf_at(x, n, d).to_bits(),
+            guide.pdf_at(x, n, d).to_bits()
+        );
         let u = [rng.f32(), rng.f32(), rng.f32()];
         assert_eq!(loaded.sample_at(x, n, u), guide.sample_at(x, n, u));
     }

@@ -136,7 +136,7 @@ fn the_share_rule_chooses_the_guide_covered_share_of_the_contribution() {
     };
     for alpha0 in [0.25, 0.75] {
         let mut grid = SelectionGrid::new(unit_box(), config).unwrap();
-    let mut samples = grid.new_samples();
+        let mut samples = grid.new_samples();
         let mut rng = Rng(5);
         let cases = [
             (Vec3::new(0.05, 0.05, 0.05), 1.0, 0.6),
@@ -165,24 +165,21 @@ fn sparse_cells_use_the_coarser_levels_choice_and_unguided_segments_teach_nothin
     let mut rng = Rng(11);
     let guided_only = |u: f64| if u < 0.5 { 2.0 } else { 0.0 };
     // Unguided segments (fraction 0) carry no guide pdf: the grid stays untrained.
-    grid.record(&mut samples, &segments(
-        Vec3::splat(0.2),
-        1000,
-        0.0,
-        guided_only,
-        &mut rng,
-    ));
+    grid.record(
+        &mut samples,
+        &segments(Vec3::splat(0.2), 1000, 0.0, guided_only, &mut rng),
+    );
     update(&mut grid, &mut samples);
     assert!(!grid.is_trained());
     // Many segments in one finest cell, a few in a neighbour of the same level-1 octant.
-    grid.record(&mut samples, &segments(
-        Vec3::splat(0.02),
-        5000,
-        0.5,
-        guided_only,
-        &mut rng,
-    ));
-    grid.record(&mut samples, &segments(Vec3::splat(0.2), 10, 0.5, |_| 1.0, &mut rng));
+    grid.record(
+        &mut samples,
+        &segments(Vec3::splat(0.02), 5000, 0.5, guided_only, &mut rng),
+    );
+    grid.record(
+        &mut samples,
+        &segments(Vec3::splat(0.2), 10, 0.5, |_| 1.0, &mut rng),
+    );
     let summary = update(&mut grid, &mut samples);
     assert!(summary.coarse_share > 0.0);
     assert_eq!(grid.fraction_at(Vec3::splat(0.02), false), Some(0.9));

@@ -1,9 +1,9 @@
 //! Choosing and building the guiding distribution of a guided render.
 
 use crate::geometry::Aabb;
-use focal_guiding::octree::{FocalOctreeGuide, OctreeGuideConfig};
 use focal_guiding::gmm::GMM_SNAPSHOT_MAGIC;
 use focal_guiding::octree::OCTREE_SNAPSHOT_MAGIC;
+use focal_guiding::octree::{FocalOctreeGuide, OctreeGuideConfig};
 use focal_guiding::{
     Aabb3, GmmConfig, GmmGuide, GuidingField, SelectionLayer, SnapshotHeader, GUIDE_SNAPSHOT_MAGIC,
 };

@@ -221,7 +221,10 @@ fn share_rule_selection_keeps_the_mean() {
     );
     let mean = check_selection_keeps_the_mean(&params, "selection_mean");
     // Learned fractions strictly inside the clamp's range on average: the rule did choose.
-    let (lo, hi) = (params.gmm.selection.min, params.gmm.selection.guide_fraction.unwrap());
+    let (lo, hi) = (
+        params.gmm.selection.min,
+        params.gmm.selection.guide_fraction.unwrap(),
+    );
     assert!(mean > lo as f64 && mean < hi as f64, "mean fraction {mean}");
 }
 

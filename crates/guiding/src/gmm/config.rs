@@ -141,7 +141,10 @@ const RENAMED: [(&str, &str); 24] = [
     ("min_points", "points.min"),
     ("max_points", "points.max"),
     ("max_rays", "points.max_rays"),
-    ("extend_through_refraction", "points.extend_through_refraction"),
+    (
+        "extend_through_refraction",
+        "points.extend_through_refraction",
+    ),
     ("decay", "schedule.decay"),
     ("narrowing", "schedule.narrowing"),
     ("narrowing_start", "schedule.narrowing_start"),
@@ -184,7 +187,7 @@ impl GmmConfig {
         if let Some((_, what)) = REMOVED.iter().find(|(n, _)| *n == leaf) {
             return Some(format!(
                 "`{name}` belonged to {what}, an experiment without a measured gain that was removed \
-                 (see docs/experiments/2026-12-07-removed-experiments.md)"
+                 (see docs/experiments/2026-12-07-redesign.md)"
             ));
         }
         if !cfg!(feature = "experimental") && EXPERIMENTAL.contains(&leaf) {

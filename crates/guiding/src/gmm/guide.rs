@@ -15,8 +15,6 @@ use glam::{DVec3, Vec3};
 
 use super::em::{FitParams, SuffStats};
 use super::mixture::Mixture;
-use super::samples::GmmSamples;
-use super::snapshot::{decode_snapshot, encode_snapshot};
 use super::GmmConfig;
 use crate::{
     Aabb3, GuideSample, GuidingField, SampleStorage, SamplingDistribution, TrainingSegment,
@@ -114,12 +112,6 @@ impl GmmGuide {
         Ok(guide)
     }
 
-    /// Decodes a snapshot written by [`GuidingField::save`], with `config` (the snapshot holds the
-    /// model alone). Errors name what is wrong, never panic.
-    pub fn load(bytes: &[u8], config: GmmConfig) -> Result<Self, String> {
-        decode_snapshot(bytes, config)
-    }
-
     /// The unit frame: y_unit = (y − centre) / scale.
     pub fn unit_frame(&self) -> (DVec3, f64) {
         (self.center, self.scale)
@@ -163,12 +155,6 @@ impl GmmGuide {
     /// The online statistics behind (converging, diverging) mixtures, unit frame.
     pub fn statistics(&self) -> (&[SuffStats], &[SuffStats]) {
         (&self.conv.stats, &self.div.stats)
-    }
-
-    /// The (converging, diverging) training rays in `samples`, a storage of this guide's.
-    pub fn stored_rays(&self, samples: &mut SampleStorage) -> (usize, usize) {
-        let rays: &GmmSamples = samples.data_mut(self.updates, 0);
-        (rays.conv.len(), rays.div.len())
     }
 
     fn world(&self, m: &Mixture) -> Mixture {
@@ -243,13 +229,13 @@ impl GuidingField for GmmGuide {
     }
 
     fn new_samples(&self) -> SampleStorage {
-        SampleStorage::new(self.name(), self.updates, GmmSamples::default())
+        self.empty_samples()
     }
 
     /// Clips the batch's segments to training rays in the storage; the mixtures are untouched until
     /// `update`.
     fn add_samples(&self, samples: &mut SampleStorage, segments: &[TrainingSegment]) {
-        self.record(samples.data_mut(self.updates, segments.len()), segments);
+        self.add_to_storage(samples, segments);
     }
 
     /// Runs the update's pipeline (`update.rs`): draws points along the stored rays (stratified
@@ -259,7 +245,7 @@ impl GuidingField for GmmGuide {
     /// (`context.threads` is not used: the result is the same for any pool size); `final_build`
     /// changes nothing, since a mixture has no pruning build.
     fn update(&mut self, samples: SampleStorage, context: &UpdateContext) -> UpdateStats {
-        let (rays, segments) = samples.into_data::<GmmSamples>(self.updates);
+        let (rays, segments) = self.take_samples(samples);
         self.run_update(rays, segments, context)
     }
 
@@ -268,7 +254,7 @@ impl GuidingField for GmmGuide {
     }
 
     fn save(&self) -> Vec<u8> {
-        encode_snapshot(self)
+        self.snapshot()
     }
 
     fn as_any(&self) -> &dyn Any {

@@ -5,7 +5,7 @@ use glam::DVec3;
 
 use super::guide::{unit, GmmGuide};
 use super::rays::{clip_to_box, TrainingRay};
-use crate::TrainingSegment;
+use crate::{GuidingField, SampleStorage, TrainingSegment};
 
 /// Training rays of one iteration and what became of its segments.
 #[derive(Clone, Debug, Default)]
@@ -23,6 +23,27 @@ pub(super) struct GmmSamples {
 }
 
 impl GmmGuide {
+    /// The (converging, diverging) training rays in `samples`, a storage of this guide's.
+    pub fn stored_rays(&self, samples: &mut SampleStorage) -> (usize, usize) {
+        let rays: &GmmSamples = samples.data_mut(self.updates, 0);
+        (rays.conv.len(), rays.div.len())
+    }
+
+    /// An empty storage for the current model.
+    pub(super) fn empty_samples(&self) -> SampleStorage {
+        SampleStorage::new(self.name(), self.updates, GmmSamples::default())
+    }
+
+    /// Adds the batch to a storage of this guide's.
+    pub(super) fn add_to_storage(&self, samples: &mut SampleStorage, segments: &[TrainingSegment]) {
+        self.record(samples.data_mut(self.updates, segments.len()), segments);
+    }
+
+    /// The rays of a storage of this guide's and its segment count, for the update.
+    pub(super) fn take_samples(&self, samples: SampleStorage) -> (GmmSamples, u64) {
+        samples.into_data::<GmmSamples>(self.updates)
+    }
+
     /// Clips the batch's segments to rays and buffers them (§3.3 of the octree note): the segment for
     /// a non-glossy endpoint, the forward and backward half-lines for a glossy one (unless the path
     /// refracted through it and `points.extend_through_refraction` is off). Segments with a non-finite

@@ -8,6 +8,7 @@ use super::guide::{unit, GmmGuide};
 use super::mixture::{MAX_COMPONENTS, TERMS_PER_COMPONENT};
 use super::special::open_unit;
 use super::truncated::sample_half_space;
+pub use crate::sampling::GmmDistribution;
 use crate::GuideSample;
 
 /// With a `normal`, a hemisphere holding less guide mass than this is treated as empty (`sample`
@@ -16,39 +17,6 @@ pub const MIN_HEMISPHERE_MASS: f64 = 1e-6;
 /// `f32` kernel terms per mixture in a [`GmmDistribution`]: the converging mixture's block, then the
 /// diverging one's.
 const KERNEL_TERMS_BLOCK: usize = TERMS_PER_COMPONENT * MAX_COMPONENTS;
-
-/// The GMM guide's distribution at one shading point: the point in the guide's unit frame, the
-/// hemisphere it samples (if any), and the `f32` kernel's per-component terms and hemisphere masses of
-/// both mixtures with their total Z. A render thread keeps one (inside its
-/// [`crate::SamplingDistribution`]), so the buffers are allocated once.
-#[derive(Clone, Debug)]
-pub struct GmmDistribution {
-    /// The shading point, unit frame.
-    xu: DVec3,
-    /// The unit normal of the sampled hemisphere; `None` for the whole sphere.
-    normal: Option<DVec3>,
-    /// Z, the guide's mass in that hemisphere (1 for the whole sphere).
-    z: f64,
-    /// The kernel's terms ([`crate::gmm::Mixture::prepare_vertex`]): converging, then diverging.
-    terms: Vec<f32>,
-    /// Every component's hemisphere mass: converging, then diverging, [`MAX_COMPONENTS`] each.
-    masses: Vec<f64>,
-    /// The guide was trained when the distribution was made (else it samples nothing).
-    active: bool,
-}
-
-impl Default for GmmDistribution {
-    fn default() -> Self {
-        Self {
-            xu: DVec3::ZERO,
-            normal: None,
-            z: 1.0,
-            terms: Vec::new(),
-            masses: Vec::new(),
-            active: false,
-        }
-    }
-}
 
 impl GmmGuide {
     /// Computes the unit-frame point, every component's kernel terms and, with a normal, every
@@ -67,7 +35,11 @@ impl GmmGuide {
     /// component and then the first normal variate; `u[1]`, `u[2]` give the other two (inverse CDF).
     /// With a normal: `u[0]` picks a component among both mixtures in proportion to its mass in the
     /// hemisphere and, rescaled, the truncated normal variate along the normal.
-    pub(super) fn sample_distribution(&self, d: &GmmDistribution, u: [f32; 3]) -> Option<GuideSample> {
+    pub(super) fn sample_distribution(
+        &self,
+        d: &GmmDistribution,
+        u: [f32; 3],
+    ) -> Option<GuideSample> {
         if !d.active {
             return None;
         }

@@ -79,21 +79,29 @@ impl SavedMixture {
     }
 }
 
-/// The guide's snapshot.
-pub(super) fn encode_snapshot(guide: &GmmGuide) -> Vec<u8> {
-    let snapshot = Snapshot {
-        aabb_min: guide.aabb.min.to_array(),
-        aabb_max: guide.aabb.max.to_array(),
-        p_div: guide.p_div,
-        updates: guide.updates,
-        conv: SavedMixture::of(&guide.conv),
-        div: SavedMixture::of(&guide.div),
-    };
-    encode(GMM_SNAPSHOT_MAGIC, SNAPSHOT_VERSION, &snapshot)
+impl GmmGuide {
+    /// The guide's snapshot ([`crate::GuidingField::save`]).
+    pub(super) fn snapshot(&self) -> Vec<u8> {
+        let snapshot = Snapshot {
+            aabb_min: self.aabb.min.to_array(),
+            aabb_max: self.aabb.max.to_array(),
+            p_div: self.p_div,
+            updates: self.updates,
+            conv: SavedMixture::of(&self.conv),
+            div: SavedMixture::of(&self.div),
+        };
+        encode(GMM_SNAPSHOT_MAGIC, SNAPSHOT_VERSION, &snapshot)
+    }
+
+    /// Decodes a snapshot written by [`crate::GuidingField::save`], with `config` (the snapshot holds
+    /// the model alone). Errors name what is wrong, never panic.
+    pub fn load(bytes: &[u8], config: GmmConfig) -> Result<Self, String> {
+        decode_snapshot(bytes, config)
+    }
 }
 
 /// The guide of a snapshot, with `config`.
-pub(super) fn decode_snapshot(bytes: &[u8], config: GmmConfig) -> Result<GmmGuide, String> {
+fn decode_snapshot(bytes: &[u8], config: GmmConfig) -> Result<GmmGuide, String> {
     let s: Snapshot = decode("GMM guide", GMM_SNAPSHOT_MAGIC, SNAPSHOT_VERSION, bytes)?;
     let aabb = Aabb3 {
         min: Vec3::from_array(s.aabb_min),

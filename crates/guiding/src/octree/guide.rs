@@ -9,8 +9,8 @@ use glam::Vec3;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
-use super::snapshot::{decode_snapshot, encode_snapshot};
 use super::tree::{is_positive_finite, FocalTree, SplatStrategy, TreeConfig, MAX_SUPPORTED_DEPTH};
+use crate::sampling::OctreeDistribution;
 use crate::{
     Aabb3, GuideSample, GuidingField, SampleStorage, SamplingDistribution, Schedule,
     SelectionLayerConfig, TrainingSegment, UpdateContext, UpdateStats,
@@ -124,13 +124,6 @@ pub struct FocalOctreeGuide {
     pub(super) updates: u32,
     /// The final, pruning build has run (the trees' minimum depth is 0 since).
     pub(super) pruned: bool,
-}
-
-/// The octree's sampling distribution at a shading point: the point itself (every pdf is a ray
-/// march through both trees from it, with nothing to precompute).
-#[derive(Clone, Copy, Debug, Default)]
-pub struct OctreeDistribution {
-    x: Vec3,
 }
 
 /// The octree's training-sample storage: the segments splatted so far, per slot of the trees they
@@ -288,12 +281,6 @@ impl FocalOctreeGuide {
             }
         }
         (conv, div, counts)
-    }
-
-    /// Decodes a snapshot written by [`GuidingField::save`], with `config` (the snapshot holds the
-    /// model alone). Errors name what is wrong, never panic.
-    pub fn load(bytes: &[u8], config: OctreeGuideConfig) -> Result<Self, String> {
-        decode_snapshot(bytes, config)
     }
 
     /// Splats the segments into `samples` with the current schedule phase's strategy.
@@ -456,7 +443,7 @@ impl GuidingField for FocalOctreeGuide {
     }
 
     fn save(&self) -> Vec<u8> {
-        encode_snapshot(self)
+        self.snapshot()
     }
 
     fn as_any(&self) -> &dyn Any {

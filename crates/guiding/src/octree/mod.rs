@@ -19,7 +19,8 @@ mod nose;
 mod snapshot;
 mod tree;
 
-pub use guide::{FocalOctreeGuide, OctreeDistribution, OctreeGuideConfig, TreeStats, SPLAT_CHUNK};
+pub use crate::sampling::OctreeDistribution;
+pub use guide::{FocalOctreeGuide, OctreeGuideConfig, TreeStats, SPLAT_CHUNK};
 pub use nose::{load_nose, store_nose, NoseTree};
 pub use snapshot::OCTREE_SNAPSHOT_MAGIC;
 pub use tree::{

@@ -48,7 +48,12 @@ impl SavedTree {
         }
     }
 
-    fn into_tree(self, aabb: Aabb3, config: &OctreeGuideConfig, pruned: bool) -> Result<FocalTree, String> {
+    fn into_tree(
+        self,
+        aabb: Aabb3,
+        config: &OctreeGuideConfig,
+        pruned: bool,
+    ) -> Result<FocalTree, String> {
         let nodes: Vec<Node> = self
             .nodes
             .iter()
@@ -68,28 +73,38 @@ impl SavedTree {
     }
 }
 
-/// The guide's snapshot.
-pub(super) fn encode_snapshot(guide: &FocalOctreeGuide) -> Vec<u8> {
-    let snapshot = Snapshot {
-        aabb_min: guide.aabb.min.to_array(),
-        aabb_max: guide.aabb.max.to_array(),
-        narrowing: guide.strategy == SplatStrategy::RayWeighted,
-        pruned: guide.pruned,
-        updates: guide.updates,
-        p_div: guide.p_div,
-        conv: SavedTree::of(&guide.conv),
-        div: SavedTree::of(&guide.div),
-    };
-    encode(OCTREE_SNAPSHOT_MAGIC, SNAPSHOT_VERSION, &snapshot)
+impl FocalOctreeGuide {
+    /// The guide's snapshot ([`crate::GuidingField::save`]).
+    pub(super) fn snapshot(&self) -> Vec<u8> {
+        let snapshot = Snapshot {
+            aabb_min: self.aabb.min.to_array(),
+            aabb_max: self.aabb.max.to_array(),
+            narrowing: self.strategy == SplatStrategy::RayWeighted,
+            pruned: self.pruned,
+            updates: self.updates,
+            p_div: self.p_div,
+            conv: SavedTree::of(&self.conv),
+            div: SavedTree::of(&self.div),
+        };
+        encode(OCTREE_SNAPSHOT_MAGIC, SNAPSHOT_VERSION, &snapshot)
+    }
+
+    /// Decodes a snapshot written by [`crate::GuidingField::save`], with `config` (the snapshot holds
+    /// the model alone). Errors name what is wrong, never panic.
+    pub fn load(bytes: &[u8], config: OctreeGuideConfig) -> Result<Self, String> {
+        decode_snapshot(bytes, config)
+    }
 }
 
 /// The guide of a snapshot, with `config`.
-pub(super) fn decode_snapshot(
-    bytes: &[u8],
-    config: OctreeGuideConfig,
-) -> Result<FocalOctreeGuide, String> {
+fn decode_snapshot(bytes: &[u8], config: OctreeGuideConfig) -> Result<FocalOctreeGuide, String> {
     config.validate()?;
-    let s: Snapshot = decode("octree guide", OCTREE_SNAPSHOT_MAGIC, SNAPSHOT_VERSION, bytes)?;
+    let s: Snapshot = decode(
+        "octree guide",
+        OCTREE_SNAPSHOT_MAGIC,
+        SNAPSHOT_VERSION,
+        bytes,
+    )?;
     let aabb = Aabb3 {
         min: Vec3::from_array(s.aabb_min),
         max: Vec3::from_array(s.aabb_max),

@@ -76,7 +76,10 @@ impl SelectionLayerConfig {
             return Err("selection: learning the fraction needs a guide_fraction".into());
         }
         if !(self.min > 0.0 && self.min < 1.0) {
-            return Err(format!("selection: min must lie in (0, 1), got {}", self.min));
+            return Err(format!(
+                "selection: min must lie in (0, 1), got {}",
+                self.min
+            ));
         }
         Ok(())
     }
@@ -175,8 +178,7 @@ impl<F: GuidingField + 'static> SelectionLayer<F> {
         let field = load_field(&snapshot.field)?;
         let grid = match (config.grid_config(), snapshot.grid) {
             (Some(c), Some(saved)) => Some(
-                SelectionGrid::from_saved(c, saved)
-                    .map_err(|e| format!("guide snapshot: {e}"))?,
+                SelectionGrid::from_saved(c, saved).map_err(|e| format!("guide snapshot: {e}"))?,
             ),
             (Some(c), None) => Some(SelectionGrid::new(field.aabb(), c)?),
             (None, _) => None,

@@ -37,7 +37,6 @@
 //! second moment (dominated by bright pixels) nor with the emission- and pixel-weighted one (see
 //! `docs/experiments/`).
 
-
 mod grid;
 mod layer;
 

@@ -195,7 +195,12 @@ struct VertexGuide<'g> {
 impl VertexGuide<'_> {
     /// The mixture pdf of direction `wo_world` and the guide's own pdf of it.
     #[inline]
-    fn mixture_pdf(&self, vertex: &SamplingDistribution, p_bsdf: f32, wo_world: glam::Vec3) -> (f32, f32) {
+    fn mixture_pdf(
+        &self,
+        vertex: &SamplingDistribution,
+        p_bsdf: f32,
+        wo_world: glam::Vec3,
+    ) -> (f32, f32) {
         let p_guide = self.guide.pdf(vertex, wo_world);
         (self.alpha * p_guide + (1.0 - self.alpha) * p_bsdf, p_guide)
     }

@@ -37,7 +37,6 @@
 //! Merges and prunes never go below k_min, splits never above k_max; components created or merged in an
 //! update are not split or merged again in it (merges run first).
 
-
 mod estep;
 mod init;
 mod stats;
@@ -114,7 +113,12 @@ pub struct FitReport {
 
 /// The MAP Gaussian of `stats` under the covariance prior with pseudo-weight `nu`; `fallback` if that
 /// fails (non-finite data), and its mean if the component has no data.
-pub(super) fn map_gaussian(stats: &SuffStats, nu: f64, params: &FitParams, fallback: &Gaussian3) -> Gaussian3 {
+pub(super) fn map_gaussian(
+    stats: &SuffStats,
+    nu: f64,
+    params: &FitParams,
+    fallback: &Gaussian3,
+) -> Gaussian3 {
     let prior2 = params.prior_sigma * params.prior_sigma;
     let floor = Sym3::scaled_identity(params.floor_sigma * params.floor_sigma);
     let denom = stats.weight + nu;
