@@ -4,7 +4,7 @@
 mod gmm_common;
 
 use focal_guiding::gmm::{GmmConfig, GmmGuide};
-use focal_guiding::GuidingDistribution;
+use focal_guiding::GuidingField;
 use glam::DVec3;
 use gmm_common::{context, scene_box, segment_through, Rng};
 
@@ -31,8 +31,7 @@ fn fit_time_for_a_million_rays() {
                 segment_through(&mut rng, aabb, y, 1.0)
             })
             .collect();
-        guide.record(&segments);
-        let stats = guide.update(&context(it, iterations));
+        let stats = guide.update_with(&segments, &context(it, iterations));
         let get = |k: &str| stats.details.iter().find(|(n, _)| n == k).unwrap().1;
         println!(
             "update {it}: {:.3} s (points {:.3} s, EM {:.3} s), K = {}, rays = {}, points = {}, \

@@ -130,10 +130,7 @@ fn trained_guide(iterations: u32, n: usize, seed: u64) -> FocalOctreeGuide {
     for i in 0..iterations {
         let mut segments = focal_segments(&mut rng, n);
         segments.extend(virtual_image_segments(&mut rng, n / 4));
-        {
-            guide.record(&segments);
-            guide.update(&context(i, 3 * iterations, 1))
-        };
+        guide.update_with(&segments, &context(i, 3 * iterations, 1));
     }
     guide
 }
@@ -424,10 +421,7 @@ fn sampled_directions_follow_the_binned_pdf() {
             s.origin += (rng.sphere() * 0.25).as_vec3();
         }
         segments.extend(virtual_image_segments(&mut rng, 3000));
-        {
-            guide.record(&segments);
-            guide.update(&context(i, 6, 1))
-        };
+        guide.update_with(&segments, &context(i, 6, 1));
     }
     let x = Vec3::new(1.3, 0.85, 0.9);
     let (n_cos, n_phi, sub) = (16usize, 32usize, 12usize);
@@ -579,10 +573,7 @@ fn a_focal_point_is_learned_and_narrowed() {
     let mut depth_narrowed = 0;
     for i in 0..iterations {
         let segments = focal_segments(&mut rng, 20_000);
-        let stats = {
-            guide.record(&segments);
-            guide.update(&context(i, iterations, 0))
-        };
+        let stats = guide.update_with(&segments, &context(i, iterations, 0));
         // After update, the strategy is that of the next iteration.
         assert_eq!(guide.strategy() == SplatStrategy::RayWeighted, i + 1 >= 6);
         assert_eq!(stats.segments, 20_000);
@@ -640,8 +631,10 @@ fn updates_are_deterministic_for_any_thread_count() {
             for i in 0..3 {
                 // Batches of uneven size, as render passes deliver them.
                 let (a, b) = segments.split_at(7_000);
-                guide.record(a);
-                guide.update_with(b, &context(i, 3, threads));
+                let mut samples = guide.new_samples();
+                guide.add_samples(&mut samples, a);
+                guide.add_samples(&mut samples, b);
+                guide.update(samples, &context(i, 3, threads));
             }
             guide.save()
         })
@@ -655,7 +648,7 @@ fn updates_are_deterministic_for_any_thread_count() {
 fn save_load_round_trip_reproduces_the_model() {
     let guide = trained_guide(3, 5000, 47);
     let bytes = guide.save();
-    let loaded = FocalOctreeGuide::load(&bytes).unwrap();
+    let loaded = FocalOctreeGuide::load(&bytes, OctreeGuideConfig::default()).unwrap();
     assert_eq!(loaded.save(), bytes);
     assert_eq!(loaded.p_div(), guide.p_div());
     let mut rng = Rng(53);
@@ -669,11 +662,11 @@ fn save_load_round_trip_reproduces_the_model() {
         let u = [rng.f32(), rng.f32(), rng.f32()];
         assert_eq!(loaded.sample_at(x, None, u), guide.sample_at(x, None, u));
     }
-    assert!(FocalOctreeGuide::load(&bytes[..bytes.len() / 2]).is_err());
-    assert!(FocalOctreeGuide::load(b"not a snapshot").is_err());
+    assert!(FocalOctreeGuide::load(&bytes[..bytes.len() / 2], OctreeGuideConfig::default()).is_err());
+    assert!(FocalOctreeGuide::load(b"not a snapshot", OctreeGuideConfig::default()).is_err());
     let mut corrupt = bytes.clone();
     corrupt[8] ^= 0x7f; // the version
-    assert!(FocalOctreeGuide::load(&corrupt).is_err());
+    assert!(FocalOctreeGuide::load(&corrupt, OctreeGuideConfig::default()).is_err());
 }
 
 #[test]

@@ -281,7 +281,7 @@ fn learns_the_pinhole(method: GuidingMethod, params: &GuideParams) -> f64 {
     let through = (0..n)
         .filter(|_| {
             let u = [rng.next_f32(), rng.next_f32(), rng.next_f32()];
-            let Some(s) = guide.sample(x, Some(glam::Vec3::Z), u) else {
+            let Some(s) = guide.sample_at(x, Some(glam::Vec3::Z), u) else {
                 return false;
             };
             if s.direction.z <= 0.0 {
