@@ -3,7 +3,7 @@
 
 use super::{Scene, ShapeInfo};
 use crate::accel::{Accel, BvhAccel};
-use crate::bsdf::{bsdf_from_desc, Bsdf, Diffuse};
+use crate::bsdf::{build_bsdf, Bsdf, Diffuse};
 use crate::camera::{camera_from_desc, Camera};
 use crate::desc::{ObjectClass, ObjectDesc, SceneDesc};
 use crate::emitter::{Emitter, SpotLight};
@@ -60,11 +60,17 @@ pub enum Strictness {
     Lenient,
 }
 
-/// Integrator plugins of other renderers' path-guiding research code that corpus scenes name (Müller et
-/// al.'s `guided_path` in Mitsuba 0.6, a Mitsuba 3 `path_guiding_integrator`). Their guides are not ours,
-/// so they are rendered with the unbiased path tracer and their `max_depth`/`rr_depth` (a documented
-/// mapping with a warning, not an error); their guiding parameters are ignored.
-pub const FOREIGN_GUIDING_INTEGRATORS: &[&str] = &["guided_path", "path_guiding_integrator"];
+/// Integrator plugins of other renderers' research code that corpus scenes name (Müller et al.'s
+/// `guided_path` in Mitsuba 0.6, a Mitsuba 3 `path_guiding_integrator`, Zeltner et al.'s specular
+/// manifold sampling `path_sms_ss`/`path_sms_ms`). They estimate the same image as a path tracer, so they
+/// are rendered with the unbiased path tracer and their `max_depth`/`rr_depth` (a documented mapping
+/// with a warning, not an error); their other parameters are ignored.
+pub const FOREIGN_GUIDING_INTEGRATORS: &[&str] = &[
+    "guided_path",
+    "path_guiding_integrator",
+    "path_sms_ss",
+    "path_sms_ms",
+];
 
 /// Options for building a scene.
 #[derive(Clone, Debug, Default)]
@@ -182,6 +188,7 @@ pub fn build_scene(desc: &SceneDesc, opts: &BuildOptions) -> SceneResult<LoadedS
             .children_of(&ObjectClass::Sampler)
             .next()
             .map(|c| c.object.as_ref()),
+        &mut b.warnings,
     )?;
     let integrator = b.integrator_from_desc(integrator, &desc.path)?;
 
@@ -213,7 +220,10 @@ pub fn build_scene(desc: &SceneDesc, opts: &BuildOptions) -> SceneResult<LoadedS
     })
 }
 
-fn sampler_from_desc(s: Option<&ObjectDesc>) -> SceneResult<SamplerSpec> {
+fn sampler_from_desc(
+    s: Option<&ObjectDesc>,
+    warnings: &mut Vec<String>,
+) -> SceneResult<SamplerSpec> {
     let Some(s) = s else {
         return Ok(SamplerSpec {
             kind: SamplerKind::Independent,
@@ -222,8 +232,15 @@ fn sampler_from_desc(s: Option<&ObjectDesc>) -> SceneResult<SamplerSpec> {
     };
     let kind = match s.plugin.as_str() {
         "independent" => SamplerKind::Independent,
-        "stratified" | "multijitter" | "orthogonal" | "ldsampler" | "sobol" | "halton"
-        | "hammersley" => SamplerKind::Sobol,
+        "sobol" => SamplerKind::Sobol,
+        "stratified" | "multijitter" | "orthogonal" | "ldsampler" | "halton" | "hammersley" => {
+            warnings.push(format!(
+                "{}: sampler '{}' is replaced by focal's Owen-scrambled Sobol sampler (the same \
+                 expectation, a different noise pattern)",
+                s.loc, s.plugin
+            ));
+            SamplerKind::Sobol
+        }
         other => return Err(s.error(format!("unknown sampler plugin '{other}'"))),
     };
     let spp = s.int_or("sample_count", 4)?;
@@ -358,7 +375,7 @@ impl Builder<'_> {
                 };
                 let at = i.map_or_else(|| scene_path.display().to_string(), |i| i.loc.to_string());
                 self.warnings.push(format!(
-                    "{at}: integrator '{foreign}' is another renderer's path-guiding plugin; rendering it \
+                    "{at}: integrator '{foreign}' is another renderer's research plugin; rendering it \
                      with focal's unbiased path tracer 'path' (max_depth {depth}, rr_depth {}), its other \
                      parameters ignored (use --guiding octree|gmm for focal guiding)",
                     s.rr_depth
@@ -394,7 +411,7 @@ impl Builder<'_> {
         if let Some(&i) = self.bsdf_index.get(&key) {
             return Ok(i);
         }
-        let bsdf = match bsdf_from_desc(o) {
+        let bsdf = match build_bsdf(o, &mut self.warnings) {
             Ok(b) => b,
             Err(e)
                 if self.opts.strictness == Strictness::Lenient
