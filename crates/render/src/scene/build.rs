@@ -15,7 +15,8 @@ use crate::geometry::{
 use crate::guide::{GuideParams, GuidingMethod};
 use crate::integrator::{GuidedSettings, PathSettings, Roulette};
 use crate::mesh::{load_obj, load_ply, load_serialized, MeshData};
-use crate::sampler::SamplerKind;
+use super::sampler_spec::sampler_from_desc;
+pub use super::sampler_spec::SamplerSpec;
 use crate::texture::Texture;
 use glam::{Affine3A, Mat4, Vec3};
 use std::collections::HashMap;
@@ -79,15 +80,6 @@ pub struct BuildOptions {
     pub integrator_override: Option<String>,
     /// Unknown-plugin handling.
     pub strictness: Strictness,
-}
-
-/// Sampler settings of the sensor.
-#[derive(Clone, Copy, Debug, serde::Serialize, serde::Deserialize)]
-pub struct SamplerSpec {
-    /// Generator.
-    pub kind: SamplerKind,
-    /// Samples per pixel the scene asks for.
-    pub spp: u32,
 }
 
 /// A scene with everything needed to render it.
@@ -217,39 +209,6 @@ pub fn build_scene(desc: &SceneDesc, opts: &BuildOptions) -> SceneResult<LoadedS
         sampler,
         integrator,
         warnings,
-    })
-}
-
-fn sampler_from_desc(
-    s: Option<&ObjectDesc>,
-    warnings: &mut Vec<String>,
-) -> SceneResult<SamplerSpec> {
-    let Some(s) = s else {
-        return Ok(SamplerSpec {
-            kind: SamplerKind::Independent,
-            spp: 4,
-        });
-    };
-    let kind = match s.plugin.as_str() {
-        "independent" => SamplerKind::Independent,
-        "sobol" => SamplerKind::Sobol,
-        "stratified" | "multijitter" | "orthogonal" | "ldsampler" | "halton" | "hammersley" => {
-            warnings.push(format!(
-                "{}: sampler '{}' is replaced by focal's Owen-scrambled Sobol sampler (the same \
-                 expectation, a different noise pattern)",
-                s.loc, s.plugin
-            ));
-            SamplerKind::Sobol
-        }
-        other => return Err(s.error(format!("unknown sampler plugin '{other}'"))),
-    };
-    let spp = s.int_or("sample_count", 4)?;
-    if spp < 1 {
-        return Err(s.error(format!("sample_count must be at least 1, got {spp}")));
-    }
-    Ok(SamplerSpec {
-        kind,
-        spp: spp.min(u32::MAX as i64) as u32,
     })
 }
 

@@ -3,6 +3,7 @@
 
 mod build;
 mod footprint;
+mod sampler_spec;
 
 pub use build::{
     build_scene, BuildOptions, GuidedSpec, IntegratorSpec, LoadedScene, SamplerSpec, Strictness,
