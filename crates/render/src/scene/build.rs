@@ -1,6 +1,8 @@
 //! Turns the neutral scene description into render objects (as pbrt-v4 and Mitsuba do): shapes with their
 //! materials and area lights, other lights, the camera, film, sampler and integrator settings.
 
+use super::sampler_spec::sampler_from_desc;
+pub use super::sampler_spec::SamplerSpec;
 use super::{Scene, ShapeInfo};
 use crate::accel::{Accel, BvhAccel};
 use crate::bsdf::{build_bsdf, Bsdf, Diffuse};
@@ -15,8 +17,6 @@ use crate::geometry::{
 use crate::guide::{GuideParams, GuidingMethod};
 use crate::integrator::{GuidedSettings, PathSettings, Roulette};
 use crate::mesh::{load_obj, load_ply, load_serialized, MeshData};
-use super::sampler_spec::sampler_from_desc;
-pub use super::sampler_spec::SamplerSpec;
 use crate::texture::Texture;
 use glam::{Affine3A, Mat4, Vec3};
 use std::collections::HashMap;

@@ -47,4 +47,3 @@ pub(super) fn sampler_from_desc(
         spp: spp.min(u32::MAX as i64) as u32,
     })
 }
-

@@ -177,7 +177,7 @@ mod tests {
     fn checker(n: u32) -> Level {
         let texels = (0..n * n)
             .map(|i| {
-                if (i % n + i / n) % 2 == 0 {
+                if (i % n + i / n).is_multiple_of(2) {
                     Rgb::ONE
                 } else {
                     Rgb::ZERO
