@@ -21,6 +21,7 @@ pub mod integrator;
 pub mod load;
 pub mod mesh;
 pub mod metrics;
+pub mod plugins;
 pub mod ray;
 pub mod render;
 pub mod sampler;
