@@ -274,8 +274,8 @@ pub fn combined_iterations(rendered: &[&IterationStats]) -> Vec<bool> {
 /// The combination weights of a render that gave guiding up (`images` and `rendered` in render order):
 /// the unguided iterations are one estimator (the path tracer), pooled by their samples and placed
 /// last, after the guided iterations that preceded the fallback; [`robust_inverse_variance_weights`]
-/// then weighs the guided ones by their variance, never above their share of the render time (the path
-/// tracer is the more efficient estimator here, or guiding would not have been given up). Their images
+/// then weighs the guided ones by their variance, never above their share of the render time next to
+/// the path tracer (the more efficient estimator here, or guiding would not have been given up). Their images
 /// are unbiased: keeping them makes the checks before a fallback cost less than their time.
 pub fn fallback_weights(images: &[IterationImage], rendered: &[&IterationStats]) -> Vec<f64> {
     let mut order: Vec<IterationImage> = Vec::new();
@@ -756,5 +756,59 @@ mod tests {
         assert_eq!(pooled_moment_ratio(std::iter::empty()), None);
         let inf = [iteration([1.0, f64::INFINITY])];
         assert_eq!(pooled_moment_ratio(inf.iter()), None);
+    }
+
+    /// An iteration of `spp` samples in two halves of a 32x32 image of 0.5 with per-sample relative noise
+    /// `sigma`.
+    fn noisy_iteration(rng: &mut focal_testkit::TestRng, spp: u32, sigma: f64) -> IterationImage {
+        let half = |rng: &mut focal_testkit::TestRng| {
+            let mut img = Image::new(32, 32);
+            let s = sigma / ((spp / 2) as f64).sqrt();
+            for p in &mut img.rgb {
+                *p = [(0.5 * (1.0 + s * rng.next_normal())) as f32; 3];
+            }
+            img
+        };
+        IterationImage {
+            a: (half(rng), spp / 2),
+            b: (half(rng), spp / 2),
+        }
+    }
+
+    #[test]
+    fn after_a_fallback_the_guided_iterations_count_but_never_above_their_time_share() {
+        let mut rng = focal_testkit::TestRng::new(11);
+        let stat = |guided: bool, render_s: f64| IterationStats {
+            guided,
+            render_s,
+            ..iteration([0.0; 2])
+        };
+        // The unguided first iteration (1 s), three guided ones (1 s each, as efficient as the path
+        // tracer, or seemingly better), then the path tracer for the rest (7 s).
+        let images = vec![
+            noisy_iteration(&mut rng, 8, 0.4),
+            noisy_iteration(&mut rng, 8, 0.2),
+            noisy_iteration(&mut rng, 8, 0.4),
+            noisy_iteration(&mut rng, 8, 4.0),
+            noisy_iteration(&mut rng, 56, 0.4),
+        ];
+        let stats = [
+            stat(false, 1.0),
+            stat(true, 1.0),
+            stat(true, 1.0),
+            stat(true, 1.0),
+            stat(false, 7.0),
+        ];
+        let rendered: Vec<&IterationStats> = stats.iter().collect();
+        let w = fallback_weights(&images, &rendered);
+        assert!((w.iter().sum::<f64>() - 1.0).abs() < 1e-12, "{w:?}");
+        // The quiet guided iteration is raised to the path tracer's inefficiency: its time share among the
+        // kept iterations (1 s of 10), not more.
+        assert!(w[1] <= 1.0 / 9.0 + 0.02, "{w:?}");
+        assert!((w[2] - w[1]).abs() < 0.03, "{w:?}");
+        // 100 times the variance: left out.
+        assert_eq!(w[3], 0.0);
+        // The path tracer's iterations share their weight by their samples.
+        assert!((w[4] / w[0] - 7.0).abs() < 1e-9, "{w:?}");
     }
 }
