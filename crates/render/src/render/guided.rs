@@ -242,7 +242,7 @@ pub fn sample_schedule(spp: u32, max_iterations: u32) -> (Vec<u32>, u32) {
 /// combination uses besides the final iteration's: by then the guide differs little from the final
 /// one. An earlier iteration's guide is worse, and its few samples per pixel hide how much worse (its
 /// rare bright paths are missing from both of its halves), so even the raised weights of
-/// [`robust_inverse_variance_weights`] would give it its share of the time.
+/// [`robust_inverse_variance_weights`] would give it its share of the samples.
 pub const STABLE_TRAINING_SHARE: f64 = 1.0 / 3.0;
 
 /// Which of the `rendered` iterations (in render order) the inverse-variance combination uses: the
@@ -274,15 +274,15 @@ pub fn combined_iterations(rendered: &[&IterationStats]) -> Vec<bool> {
 /// The combination weights of a render that gave guiding up (`images` and `rendered` in render order):
 /// the unguided iterations are one estimator (the path tracer), pooled by their samples and placed
 /// last, after the guided iterations that preceded the fallback; [`robust_inverse_variance_weights`]
-/// then weighs the guided ones by their variance, never above their share of the render time next to
-/// the path tracer (the more efficient estimator here, or guiding would not have been given up). Their images
+/// then weighs the guided ones by their variance, never above their share of the samples next to the
+/// path tracer (the more efficient estimator here, or guiding would not have been given up). Their images
 /// are unbiased: keeping them makes the checks before a fallback cost less than their time.
 pub fn fallback_weights(images: &[IterationImage], rendered: &[&IterationStats]) -> Vec<f64> {
     let mut order: Vec<IterationImage> = Vec::new();
-    let mut seconds: Vec<f64> = Vec::new();
-    for (image, s) in images.iter().zip(rendered).filter(|(_, s)| s.guided) {
+    let mut cost: Vec<f64> = Vec::new();
+    for (image, _) in images.iter().zip(rendered).filter(|(_, s)| s.guided) {
         order.push(image.clone());
-        seconds.push(s.render_s);
+        cost.push(image.spp() as f64);
     }
     let unguided: Vec<(&IterationImage, &&IterationStats)> = images
         .iter()
@@ -292,9 +292,9 @@ pub fn fallback_weights(images: &[IterationImage], rendered: &[&IterationStats])
     let unguided_spp: f64 = unguided.iter().map(|(i, _)| i.spp() as f64).sum();
     if unguided_spp > 0.0 {
         order.push(pooled_halves(unguided.iter().map(|(i, _)| *i)));
-        seconds.push(unguided.iter().map(|(_, s)| s.render_s).sum());
+        cost.push(unguided_spp);
     }
-    let w = robust_inverse_variance_weights(&order, &seconds);
+    let w = robust_inverse_variance_weights(&order, &cost);
     let pool_weight = if unguided_spp > 0.0 {
         w[w.len() - 1]
     } else {
@@ -605,14 +605,14 @@ pub fn render_guided(
         Combine::InverseVariance => {
             let rendered: Vec<&IterationStats> = stats.iter().filter(|s| s.spp > 0).collect();
             let eligible = combined_iterations(&rendered);
-            let (its, seconds): (Vec<IterationImage>, Vec<f64>) = images
+            // Sample counts as the cost (not seconds): the image must not depend on the machine's load.
+            let (its, cost): (Vec<IterationImage>, Vec<f64>) = images
                 .iter()
-                .zip(&rendered)
                 .zip(&eligible)
                 .filter(|(_, &e)| e)
-                .map(|((i, s), _)| (i.clone(), s.render_s))
+                .map(|(i, _)| (i.clone(), i.spp() as f64))
                 .unzip();
-            let w = robust_inverse_variance_weights(&its, &seconds);
+            let w = robust_inverse_variance_weights(&its, &cost);
             let mut it = w.into_iter();
             eligible
                 .iter()
