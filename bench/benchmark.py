@@ -263,6 +263,8 @@ def cmd_run(args):
                 image = work / f"{out.stem}_{name}_{variant}_{seed}.exr"
                 cmd = [binary, "render", s["path"], *s["args"], *vargs, "--time", budget, "--seed", seed,
                        "-q", "-o", image]
+                if getattr(args, "save_iterations", False) and "--guiding" in vargs and binary == str(FOCAL):
+                    cmd += ["--save-iterations", image.with_suffix("")]
                 run(cmd, quiet=True)
                 side = json.loads(image.with_suffix(".json").read_text())
                 m = score(image, name)
@@ -287,8 +289,11 @@ def cmd_run(args):
                       f"{sc['trimmed_mean_ratio']:.3f}{' FAILED' if sc['failed'] else ''}"
                       f"{' fell back' if record['fell_back'] else ''}", flush=True)
                 if not args.keep_images:
+                    # The sidecar stays beside saved iterations: bench/combination_study.py reads both.
+                    kept = (".json",) if "--save-iterations" in map(str, cmd) else ()
                     for suffix in (".exr", ".json"):
-                        image.with_suffix(suffix).unlink(missing_ok=True)
+                        if suffix not in kept:
+                            image.with_suffix(suffix).unlink(missing_ok=True)
 
 
 def bootstrap_mean_ci(values, level=0.9, rounds=2000, rng=None):
@@ -400,6 +405,9 @@ def main():
     r.add_argument("--variants", default=DEFAULT_VARIANTS)
     r.add_argument("--seeds", help="e.g. 0-7 (default: the stage's)")
     r.add_argument("--time", type=float, help="override every scene's budget (seconds)")
+    r.add_argument("--save-iterations", action="store_true",
+                   help="guided runs also write every iteration's halves (for bench/combination_study.py "
+                        "target/benchmark/runs)")
     r.add_argument("--keep-images", action="store_true")
     rep = sub.add_parser("report", help="print the tables")
     common(rep)

@@ -7,7 +7,7 @@ DIR -o DIR.exr`, named SCENE_METHOD_SEED (SCENE as in bench/benchmark.py):
 
   python3 bench/combination_study.py RUNS_DIR [--rules last,old,raised_third,...]
 
-Each rule turns the saved iterations (two halves each, with spp and render time from the sidecar) into an
+Each rule turns the saved iterations (two halves each, with spp from the sidecar) into an
 image, which is scored as the benchmark scores (bench/benchmark.py, crates/render/src/score.rs): the
 untrimmed exposure-normalised relMSE against the truth from both references, and the bias check. Since every
 rule sees the same iterations, the per-seed ratios between rules are paired and far less noisy than
@@ -17,9 +17,11 @@ Rules:
   last          the final iteration only (Rath et al.)
   old           until 2026-12-07: guided iterations with at least a quarter of the largest one's spp,
                 weighted 1/v, those under 5 % of the best weight dropped
-  raised_all    1/v with each iteration's inefficiency v·t raised to at least the final one's (all guided)
+  raised_all    1/v with each iteration's inefficiency v·n (n its samples per pixel) raised to at least the
+                final one's (all guided)
   raised_third  the same over the final iteration and the last third of the guided training (the default)
-  time_third    time weights over the final iteration and the last third of the guided training
+  later_third   as raised_third, but raised to the largest of the later iterations' (the first version)
+  samples_third sample-count weights over the final iteration and the last third of the guided training
 """
 
 import argparse
@@ -77,20 +79,27 @@ def pooled(its):
     return sum(image(i) * (i["spp"] / n) for i in its)
 
 
-def raised_weights(its):
+def raised_weights(its, to_later=False):
     p = pooled(its)
     known = []
     for it in its:
         v = halves_variance(it, p)
-        e = v * max(it["t"], 1e-9) if v is not None else None
+        e = v * max(it["spp"], 1e-9) if v is not None else None
         known.append(e if e is not None and e > 0 and math.isfinite(e) else None)
     worst = max([e for e in known if e is not None], default=0.0)
     if worst <= 0:
-        t = [max(i["t"], 0.0) for i in its]
+        t = [max(i["spp"], 0.0) for i in its]
         return [x / sum(t) for x in t]
     last = known[-1] if known[-1] is not None else worst
     raised = [max(e if e is not None else worst, last) for e in known]
-    w = [max(it["t"], 1e-9) / r if r <= 20 * last else 0.0 for it, r in zip(its, raised)]
+    if to_later:
+        # the first version: raised to the largest of the later iterations'
+        raised, later = [0.0] * len(known), 0.0
+        for i in reversed(range(len(known))):
+            later = max(later, known[i] if known[i] is not None else worst)
+            raised[i] = later
+        last = raised[-1]
+    w = [max(it["spp"], 1e-9) / r if r <= 20 * last else 0.0 for it, r in zip(its, raised)]
     s = sum(w)
     return [x / s for x in w]
 
@@ -130,9 +139,12 @@ def combine(rule, its):
     elif rule == "raised_third":
         chosen = stable(guided)
         w = raised_weights(chosen)
-    elif rule == "time_third":
+    elif rule == "later_third":
         chosen = stable(guided)
-        t = [i["t"] for i in chosen]
+        w = raised_weights(chosen, to_later=True)
+    elif rule == "samples_third":
+        chosen = stable(guided)
+        t = [i["spp"] for i in chosen]
         w = [x / sum(t) for x in t]
     else:
         sys.exit(f"unknown rule {rule}")
@@ -178,12 +190,15 @@ def load_run(sidecar):
 def main():
     p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("runs")
-    p.add_argument("--rules", default="last,old,raised_all,raised_third,time_third")
+    p.add_argument("--rules", default="last,old,raised_all,raised_third,later_third,samples_third")
     args = p.parse_args()
     rules = args.rules.split(",")
     results = {}
     for side in sorted(Path(args.runs).glob("*.json")):
-        scene, method, seed = side.stem.rsplit("_", 2)
+        # SCENE_METHOD_SEED, or bench/benchmark.py's STAGE[-TAG]_SCENE_METHOD_SEED
+        scene, method, seed = side.stem.rsplit("_", 3)[-3:]
+        if not side.with_suffix("").is_dir():
+            continue
         try:
             ra, rb = (load(r) for r in benchmark.reference_paths(scene))
         except Exception as e:  # noqa: BLE001
