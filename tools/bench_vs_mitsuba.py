@@ -4,7 +4,7 @@ XML scenes, same resolution, spp and thread count, interleaved in one run (these
 
     pip install mitsuba            # once; llvm_ad_rgb also needs libLLVM (apt-get install llvm)
     cargo build --release -p focal-cli
-    python3 tools/bench_vs_mitsuba.py --scenes ../shared/references/scenes/cbox.xml,../shared/references/scenes/caustic.xml
+    python3 tools/bench_vs_mitsuba.py --scenes tests/data/references/scenes/cbox.xml,tests/data/references/scenes/caustic.xml
 
 Prints median samples/s per renderer and the ratios focal / Mitsuba.
 """
