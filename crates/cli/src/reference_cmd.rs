@@ -1,10 +1,12 @@
-//! `focal reference`: a long, resumable, unguided render for use as a reference, with its per-pixel
-//! variance of the mean.
+//! `focal reference`: a long, resumable render for use as a reference, with its per-pixel variance of
+//! the mean: unguided, or guided by a saved guide (`--load-guide`), so that a scene's truth can come from
+//! two independent references made by different methods.
 
 use crate::render_cmd::{parse_defines, parse_sampler};
 use anyhow::{bail, Context, Result};
 use clap::Args;
-use focal_render::integrator::{Integrator, PathIntegrator};
+use focal_render::guide::load_guide;
+use focal_render::integrator::{GuidedPathIntegrator, GuidedSettings, Integrator, PathIntegrator};
 use focal_render::load::load_scene;
 use focal_render::render::reference::{
     checkpoint_path, fnv1a64, render_reference, ReferenceOutcome, ReferenceSettings,
@@ -53,6 +55,15 @@ pub struct ReferenceArgs {
     /// Override the sampler: independent or sobol.
     #[arg(long)]
     pub sampler: Option<String>,
+    /// Override the scene's integrator plugin (e.g. `path` for scenes written for another renderer's
+    /// integrator); its path settings (depth, emitter visibility) are used.
+    #[arg(long)]
+    pub integrator: Option<String>,
+    /// Render with this trained guide (saved by `focal render --save-guide`) and the guided path tracer's
+    /// default settings, instead of the plain path tracer. The guide is not trained further, so the
+    /// reference stays unbiased; the guide file is part of the checkpoint's key.
+    #[arg(long, value_name = "GUIDE")]
+    pub load_guide: Option<PathBuf>,
     /// Also write a tonemapped PNG.
     #[arg(long)]
     pub png: bool,
@@ -70,7 +81,11 @@ pub fn run(a: ReferenceArgs) -> Result<()> {
         bail!("--checkpoint-every must be a non-negative number of seconds");
     }
     let params = parse_defines(&a.defines)?;
-    let loaded = load_scene(&a.scene, &params, &BuildOptions::default())?;
+    let options = BuildOptions {
+        integrator_override: a.integrator.clone(),
+        ..BuildOptions::default()
+    };
+    let loaded = load_scene(&a.scene, &params, &options)?;
     for w in &loaded.warnings {
         eprintln!("warning: {w}");
     }
@@ -78,20 +93,52 @@ pub fn run(a: ReferenceArgs) -> Result<()> {
         Some(s) => parse_sampler(s)?,
         None => loaded.sampler.kind,
     };
-    // A reference is unguided: a guided scene is rendered by the plain path tracer with its path settings.
+    // Without a guide, a guided scene is rendered by the plain path tracer with its path settings.
     let path = match &loaded.integrator {
         IntegratorSpec::Path(p) => *p,
         IntegratorSpec::Guided(g) => g.settings.path,
     };
-    let integrator: Box<dyn Integrator> = Box::new(PathIntegrator { settings: path });
+    let guide_bytes = match &a.load_guide {
+        Some(p) => std::fs::read(p).with_context(|| format!("reading {}", p.display()))?,
+        None => Vec::new(),
+    };
+    let guide = match &a.load_guide {
+        Some(p) => {
+            Some(load_guide(&guide_bytes).map_err(|e| anyhow::anyhow!("{}: {e}", p.display()))?)
+        }
+        None => None,
+    };
+    let guided_settings = GuidedSettings {
+        path,
+        ..GuidedSettings::default()
+    };
+    let integrator: Box<dyn Integrator + '_> = match &guide {
+        Some(g) => Box::new(GuidedPathIntegrator {
+            settings: guided_settings,
+            guide: Some(g.as_ref()),
+            record: false,
+        }),
+        None => Box::new(PathIntegrator { settings: path }),
+    };
     let scene_bytes =
         std::fs::read(&a.scene).with_context(|| format!("reading {}", a.scene.display()))?;
     let defines = format!("{params:?}");
-    let shape = format!(
-        "seed={} sampler={sampler:?} pass={} path={path:?}",
-        a.seed, a.pass_spp
-    );
-    let key = fnv1a64(&[&scene_bytes, defines.as_bytes(), shape.as_bytes()]);
+    let shape = match &guide {
+        Some(_) => format!(
+            "seed={} sampler={sampler:?} pass={} guided={guided_settings:?}",
+            a.seed, a.pass_spp
+        ),
+        None => format!(
+            "seed={} sampler={sampler:?} pass={} path={path:?}",
+            a.seed, a.pass_spp
+        ),
+    };
+    let key = fnv1a64(&[
+        &scene_bytes,
+        defines.as_bytes(),
+        shape.as_bytes(),
+        &guide_bytes,
+    ]);
     let settings = ReferenceSettings {
         render: RenderSettings {
             spp: a.spp,
@@ -168,6 +215,7 @@ pub fn run(a: ReferenceArgs) -> Result<()> {
         "sampler": format!("{sampler:?}"),
         "seed": a.seed,
         "defines": params,
+        "loaded_guide": a.load_guide.as_ref().map(|p| p.display().to_string()),
         "spp": stats.spp,
         "pass_spp": a.pass_spp,
         "passes": stats.passes,

@@ -97,11 +97,12 @@ pub struct GuidingArgs {
     #[arg(long)]
     pub no_split: bool,
     /// Never give up guiding. By default a time-budget render compares, after every guided training
-    /// iteration, the guided images so far with the unguided first iteration's; where guiding's relative
-    /// error times its render time is more than 0.3 times the path tracer's at the first check, more
-    /// than it at the second (more than half of it where the guided vertices' second-moment ratio shows
-    /// no gain) or more than twice it at a later one, it renders the rest of the budget unguided (the
-    /// Cornell box, veach-mis). Guiding is kept whatever the images say where that ratio is at least 2.
+    /// iteration, the guided images so far with the unguided first iteration's; from the third check on,
+    /// where guiding's relative error times its render time is more than the path tracer's (more than
+    /// half of it where the guided vertices' second-moment ratio shows no gain), or more than twice it
+    /// at a later check, it renders the rest of the budget unguided (the Cornell box, veach-mis).
+    /// Guiding is kept whatever the images say where that ratio is at least 2, and where the comparison
+    /// had nothing to go on.
     #[arg(long)]
     pub no_fallback: bool,
     /// Octree relative split threshold (orth.threshold).
@@ -125,6 +126,11 @@ pub struct GuidingArgs {
     /// projected over the render, or the octree leaves' density on a slice through the densest leaf.
     #[arg(long)]
     pub guide_image: bool,
+    /// Also write every iteration's image as its two interleaved halves, DIR/iteration_K_a.exr and
+    /// _b.exr (K as the sidecar's `iterations[].index`, which gives their spp, time and weight), for
+    /// studying how iterations combine.
+    #[arg(long, value_name = "DIR")]
+    pub save_iterations: Option<PathBuf>,
 }
 
 /// Parses `-D name=value` arguments.
@@ -365,6 +371,22 @@ pub fn run(a: RenderArgs) -> Result<()> {
                     vis.write_png(&png, 0.0)
                         .with_context(|| format!("writing {}", png.display()))?;
                     guide_caption = Some(caption);
+                }
+            }
+            if let Some(dir) = &g.save_iterations {
+                std::fs::create_dir_all(dir)
+                    .with_context(|| format!("creating {}", dir.display()))?;
+                let rendered = out.iterations.iter().filter(|s| s.spp > 0);
+                for (it, s) in out.iteration_images.iter().zip(rendered) {
+                    for (half, (img, spp)) in [("a", &it.a), ("b", &it.b)] {
+                        if *spp > 0 {
+                            let p = dir.join(format!("iteration_{:02}_{half}.exr", s.index));
+                            let mut img = img.clone();
+                            img.sanitize();
+                            img.write_exr(&p)
+                                .with_context(|| format!("writing {}", p.display()))?;
+                        }
+                    }
                 }
             }
             if let (Some(p), Some(guide)) = (&g.save_guide, &guide) {
