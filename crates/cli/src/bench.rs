@@ -11,8 +11,9 @@ use std::path::PathBuf;
 /// Arguments of `focal bench`.
 #[derive(Args, Debug)]
 pub struct BenchArgs {
-    /// The folder with `scenes/` and `mitsuba3/` (the project's shared reference data).
-    #[arg(long, default_value = "../shared/references")]
+    /// The folder with `scenes/` and `mitsuba3/` (the reference scenes and their Mitsuba 3 renders,
+    /// vendored in the repository; the default is relative to the repository's root).
+    #[arg(long, default_value = "tests/data/references")]
     pub references: PathBuf,
     /// Scenes (names in `scenes/` without .xml).
     #[arg(long, value_delimiter = ',', default_value = "cbox,caustic")]

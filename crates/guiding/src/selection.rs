@@ -31,9 +31,8 @@
 //!
 //! The GMM guide uses it for the final render only (`GmmConfig::learn_selection`, on by default with the
 //! share rule and a least fraction of 0.4; training iterations keep the fixed fraction). With the second-
-//! moment rule it did not beat the fixed fraction on focal scenes at equal time, with the absolute
-//! second moment (dominated by bright pixels) nor with the emission- and pixel-weighted one (see the GMM
-//! config).
+//! moment rule it did not beat the fixed fraction on focal scenes at equal time
+//! (docs/experiments/2026-12-01-selection-second-moment.md).
 
 use crate::{Aabb3, TrainingSegment};
 use glam::Vec3;

@@ -1,4 +1,4 @@
-//! Tests of the focal-guiding octree against the properties in `focal-guiding-octree.md` §9.
+//! Tests of the focal-guiding octree against the properties in `docs/design/octree.md` §9.
 
 use std::f64::consts::PI;
 

@@ -1,5 +1,6 @@
-//! Every scene of the shared corpus (public Mitsuba scenes) loads and renders a few samples of a small
-//! film crop without NaN and with a plausible mean, or fails early with the documented, located error.
+//! Every scene of the vendored corpus (public Mitsuba scenes in `tests/data/corpus`) loads and renders a
+//! few samples of a small film crop without NaN and with a plausible mean, or fails early with the
+//! documented, located error.
 
 mod common;
 
@@ -8,7 +9,7 @@ use focal_render::load::load_scene;
 use focal_render::scene::{BuildOptions, LoadedScene, Strictness};
 
 fn load_corpus(rel: &str, opts: &BuildOptions) -> Result<LoadedScene, String> {
-    let path = shared_dir().join("corpus").join(rel);
+    let path = test_data_dir().join("corpus").join(rel);
     load_scene(&path, &[], opts).map_err(|e| e.to_string())
 }
 
@@ -67,7 +68,7 @@ fn sms_ring_specular_manifold_integrator_renders_as_path_with_a_warning() {
 
 #[test]
 fn every_corpus_scene_loads_strictly_except_media_and_sunsky() {
-    let corpus = shared_dir().join("corpus");
+    let corpus = test_data_dir().join("corpus");
     let mut checked = 0;
     for entry in std::fs::read_dir(&corpus).unwrap() {
         let dir = entry.unwrap().path();

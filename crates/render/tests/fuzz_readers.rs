@@ -3,7 +3,8 @@
 //! never panic, and every failure must be an error that says where (file, and line where there is one).
 //!
 //! The default run is short (a few hundred cases in all). The long, benchmark-style run is
-//! `tools/fuzz-readers.sh` (sets `FOCAL_FUZZ_CASES`, release mode); see the README.
+//! `tools/fuzz-readers.sh` (sets `FOCAL_FUZZ_CASES`, release mode; its run time:
+//! `docs/experiments/2026-12-01-reader-fuzzing.md`).
 
 use focal_render::desc::xml::parse_scene_str;
 use focal_render::error::SourceLoc;

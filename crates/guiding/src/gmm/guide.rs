@@ -1,5 +1,5 @@
 //! [`GmmGuide`]: focal path guiding with a converging and a diverging spatial Gaussian mixture
-//! (design note `gmm-focal-guiding.md`), implementing [`GuidingDistribution`].
+//! (`docs/design/gmm.md`), implementing [`GuidingDistribution`].
 //!
 //! Internally everything lives in a *unit frame*: y_u = (y − c)/h with c the box centre and h half its
 //! largest extent, so the box fits in [−1, 1]³. The directional pdf is invariant under this isotropic
@@ -35,8 +35,8 @@ pub const NARROWING_DECAY: f64 = 0.25;
 /// returns `None`, `pdf` 0): guiding into it would only chase the mixture's far tails.
 pub const MIN_HEMISPHERE_MASS: f64 = 1e-6;
 /// A mixture holding less than this share of the total (decayed + new) training weight is dropped: it
-/// would cost as much per pdf evaluation as a useful one while adding nothing to the sampling (caustic
-/// scene: the diverging mixture held 1e-16 of the weight with 63 components).
+/// would cost as much per pdf evaluation as a useful one while adding nothing to the sampling
+/// (observed: docs/experiments/2026-12-01-gmm-mixture-cost.md).
 pub const MIN_MIXTURE_SHARE: f64 = 1e-3;
 /// `f32` kernel terms per mixture in a [`GuideVertex`]'s `buffer32`: the converging mixture's block,
 /// then the diverging one's.
@@ -87,12 +87,9 @@ pub struct GmmConfig {
     /// pseudo-weight is this many times the mixture's weight per effective ray, (Σm)²/Σm² over the
     /// rays' masses m = c·length (decayed across updates as the statistics are), i.e. a share
     /// `sparse_prior_rays`/n_eff of the training weight (at most 1); it adds to the base prior as one
-    /// conjugate prior. Opt-in (0, the default, disables it). On sms-ring (an effective 3–7 rays per
-    /// update, about a hundred segments) 0.5 made the GMM's loaded guide as good as the octree's per
-    /// sample (16 spp, relMSE 0.006 against 0.026 without and 0.004–0.009 for the octree), and at
-    /// 10 s (seeds 213–215) cut its relMSE 0.0166 → 0.0094 (octree 0.0033); but the camera obscuras,
-    /// whose pinhole rays are nearly as few (an effective 25–60), lost 9× to their blurred pinhole,
-    /// so over the ten focal scenes it was 1.6× the octree against 0.74× without.
+    /// conjugate prior. Meant for sparse, heavy-tailed data such as sms-ring's caustic (an effective 3–7
+    /// rays per update). Opt-in (0, the default, disables it): it helps sms-ring but blurs the camera
+    /// obscuras' pinhole (docs/experiments/2026-12-04-sms-ring-gmm-guide.md).
     pub sparse_prior_rays: f64,
     /// σ of the sparse-data prior as a fraction of the box diagonal.
     pub sparse_prior_sigma: f64,
@@ -102,73 +99,57 @@ pub struct GmmConfig {
     pub split_threshold: f64,
     /// Merge two components whose Bhattacharyya distance is below this.
     pub merge_threshold: f64,
-    /// Prune components holding less than this share of their mixture's weight. Every component costs a
-    /// term per shading point (the kernel was half of a guided render's time on the camera obscura with
-    /// 31 components). 0.005 loses the bundled camera obscura's pinhole, whose component is still
-    /// small in the first guided iterations (0.0006 of guided directions through the hole at 256 spp
-    /// against 0.51 at 1e-5; `gmm_learns_the_camera_obscura_pinhole`).
+    /// Prune components holding less than this share of their mixture's weight: every component costs a
+    /// term per shading point. Kept small because a pinhole's component is still small in the first
+    /// guided iterations: 0.005 loses the bundled camera obscura's pinhole
+    /// (docs/experiments/2026-12-01-gmm-mixture-cost.md).
     pub prune_share: f64,
     /// Seed of the initialisation and of the points' stratification jitter.
     pub seed: u64,
     /// The probability of sampling this guide rather than the BSDF that the guide asks a renderer for
     /// ([`GuidingDistribution::selection_probability`]; a fraction the user gives the renderer wins).
-    /// 0.75 rather than Rath et al.'s 0.5: the exact, hemisphere-truncated pdf can be leaned on harder.
-    /// At equal time (20 s, 3 seeds, 6 focal scenes) it gave 0.59× the relMSE of 0.5 in geometric
-    /// mean (torus 0.12×, shaded lights 0.52×, sms-ring 0.68×, caustic 0.71×, obscura 1.03×, door gap
-    /// 1.31×), while the octree gained little from it (0.95×; obscura 1.53×).
+    /// 0.75 rather than Rath et al.'s 0.5: the exact, hemisphere-truncated pdf can be leaned on harder
+    /// (0.59× the relMSE of 0.5 at equal time: docs/experiments/2026-12-01-gmm-guide-fraction.md).
     pub guide_fraction: f32,
     /// Learn the fraction per region of space ([`SelectionGrid`]) for the final render (training
-    /// iterations keep `guide_fraction`). On by default, with the share rule and `selection_min` 0.4:
-    /// in two batches of the ten focal scenes at 10 s (seeds 0–2, then 50–54), the geometric mean of
-    /// the per-scene mean relMSE ratios to the octree went from 0.99 to 0.82 and from 0.86 to 0.75
-    /// (per-seed ratios over the 50 pairs of the second: 0.92 → 0.82; by medians 1.09 → 1.11 and
-    /// 0.91 → 0.98), and a third, side by side (seeds 70–72), from 0.90 to 0.66 (medians 0.80 →
-    /// 0.59): fewer runs lost to fireflies (lens focus, shaded lights, glass caustic), and the
-    /// door gap and veach-bidir stop spending 0.75 where other paths light the room. The reference
-    /// and own camera obscura lost 1.2–1.7× in the second batch but gained (0.66×, 0.75×) in the
-    /// third: within the seed-to-seed noise. Minimising each region's absolute second
-    /// moment Σc² chose fractions below 0.5 where the guide was good (obscura: 0.33–0.4) and lost to the
-    /// fixed fraction at equal time. With NEE-aware emission and per-pixel weights
-    /// ([`TrainingSegment::second_moment_with_fraction`]) it still did (20 s, seeds 0 and 1: caustic
-    /// 0.22 and 0.13 against about 0.10; torus 4.8 against 1.3, seed 0), also with one cell for the
-    /// whole scene: the per-vertex second moment prefers 0.4–0.5 on torus and shaded lights, where
-    /// relMSE rewards 0.75. The share rule (`selection_by_share`) helps the door gap and veach-bidir,
-    /// where the guide's fixed 0.75 is wasted in regions lit otherwise, in every run so far, but not
-    /// the whole benchmark yet (see README).
+    /// iterations keep `guide_fraction`), so that regions lit by other paths (the door gap's lit room)
+    /// stop spending 0.75 on the guide. On by default, with the share rule and `selection_min` 0.4
+    /// (docs/experiments/2026-12-03-learned-selection-default.md); the second-moment rule
+    /// ([`TrainingSegment::second_moment_with_fraction`]) lost to the fixed fraction
+    /// (docs/experiments/2026-12-01-selection-second-moment.md).
     pub learn_selection: bool,
     /// With `learn_selection`, choose each region's fraction as the share of its contribution that
     /// arrives from directions the guide covers ([`SelectionRule::ContributionShare`]), between
     /// `selection_min` and `guide_fraction`, rather than by least second moment; glossy vertices keep
     /// `guide_fraction` and do not teach the grid (on the torus's rough glass the share is near 0, but
-    /// the fixed fraction wins).
+    /// the fixed fraction wins: docs/experiments/2026-12-02-selection-share-rule.md).
     pub selection_by_share: bool,
     /// The least fraction the share rule chooses (at most `guide_fraction`). 0.4 rather than 0.1: lower
     /// floors starved the lens focus and the shaded lights, whose diffuse receivers see their light
-    /// through a caustic the guide covers but still finds rarely.
+    /// through a caustic the guide covers but still finds rarely
+    /// (docs/experiments/2026-12-02-selection-share-rule.md).
     pub selection_min: f32,
     /// Also train on the whole line through glass that bent the path by refraction
     /// ([`crate::TrainingSegment::refracting_endpoint`]: a ball or a lens, not a window), as Rath et al.
     /// do for every glossy endpoint. Off by default: such segments are trained on as segments. Behind a
     /// window the light is where the line through the glass points, so those lines are always extended;
-    /// behind a lens it is not, and the lines continued through a glass ball fan out beyond it.
+    /// behind a lens it is not, and the lines continued through a glass ball fan out beyond it
+    /// (docs/experiments/2026-12-02-lines-through-glass.md).
     pub extend_through_refraction: bool,
     /// κ of MIS-compensated training weights ([`ReflectedRadiance`]; Karlík et al. 2019): each
     /// segment is fitted with max(0, c − κ·T·L_o·p_bsdf/p_mix) instead of its contribution c, T the path
     /// throughput at its origin and L_o the mean radiance the shading points of that region reflect,
     /// so that the mixture holds what BSDF sampling does not already find (a pinhole, not the room its
     /// light bounces around in); 0 (the default) fits c (Rath et al.). Glossy origins are not
-    /// compensated. Opt-in (`--gmm compensation=1`): side by side with the octree at 10 s (ten focal
-    /// scenes, seeds 200–206) the geometric mean of the gmm/octree relMSE ratios was 0.72 with it
-    /// against 0.80 without by means, but 0.94 against 0.94 by medians and 0.91 against 0.91 per
-    /// seed: it helped the caustic, the reference obscura, veach-bidir and the torus and cost the
-    /// own obscura, the shaded lights and the glass caustic, within the batches' noise. It keeps the
-    /// obscura's pinhole (`gmm_with_compensated_weights_learns_the_camera_obscura_pinhole`).
+    /// compensated. Opt-in (`--gmm compensation=1`): at equal time it was within the noise of the
+    /// uncompensated fit (docs/experiments/2026-12-04-compensation.md). It keeps the obscura's pinhole
+    /// (`gmm_with_compensated_weights_learns_the_camera_obscura_pinhole`).
     pub compensation: f64,
     /// Weigh the components at each shading point by where their training rays started
-    /// ([`OriginModel`]): c_k(x) = (1 − β)·W_k O_k(x)/Σ_j W_j O_j(x) + β·π_k instead of π_k. Off by
-    /// default: at equal time it has not beaten the global weights reproducibly (see README; 0.64× in
-    /// one six-seed run with an aliased ray subset, 1.06× by means and 1.16× per seed in the next with
-    /// the subset fixed), at about 10 % fewer samples.
+    /// ([`OriginModel`]): c_k(x) = (1 − β)·W_k O_k(x)/Σ_j W_j O_j(x) + β·π_k instead of π_k, so that a
+    /// shading point prefers the foci its neighbourhood's light went through. Off by default: at equal
+    /// time it has not beaten the global weights reproducibly, at about 10 % fewer samples
+    /// (docs/experiments/2026-12-02-origin-model.md).
     pub condition_on_origins: bool,
     /// β of the origin model: the share of the global weights kept everywhere.
     pub origin_floor: f64,
@@ -178,15 +159,17 @@ pub struct GmmConfig {
     pub origin_min_sigma: f64,
     /// β of tempered training weights: each update's rays are fitted with c^β instead of c, rescaled so
     /// that each mixture's total mass is unchanged (1, the default, fits c as Rath et al. do). Below 1
-    /// a few heavy rays (a caustic's fireflies) no longer decide the fit alone.
+    /// a few heavy rays (a caustic's fireflies) no longer decide the fit alone (first look:
+    /// docs/experiments/2026-12-06-clamped-training-weights.md).
     pub weight_power: f64,
     /// Clamp each update's heaviest training rays (per mixture) so that at least this many rays stand
     /// behind the fit by weight, (Σm)²/Σm² over the masses m = c·length (fewer if there are fewer rays),
-    /// keeping the total mass; 0 (the default) leaves the weights alone.
+    /// keeping the total mass; 0 (the default) leaves the weights alone (first look:
+    /// docs/experiments/2026-12-06-clamped-training-weights.md).
     pub min_effective_rays: f64,
     /// Truncated importance weights (Ionides 2008): each update's training weights are clamped at this
     /// factor times √N times their mean (N the mixture's rays in the update), keeping the total mass;
-    /// 0 (the default) leaves them alone.
+    /// 0 (the default) leaves them alone. Not measured yet.
     pub weight_truncation: f64,
 }
 
@@ -330,8 +313,9 @@ struct Pending {
 
 /// Focal path guiding with two spatial Gaussian mixtures: a direction is drawn towards a point
 /// y ~ ρ_conv (probability 1 − p_div) or away from a point y ~ ρ_div (probability p_div), and its pdf
-/// (1 − p_div)·p_conv(x, ω) + p_div·p_div(x, −ω) is the exact half-line integral (design note). With a
-/// `normal` both sampling and pdf are truncated to the hemisphere around it. Untrained (before the first
+/// (1 − p_div)·p_conv(x, ω) + p_div·p_div(x, −ω) is the exact half-line integral
+/// (`docs/design/gmm.md`). With a `normal` both sampling and pdf are truncated to the hemisphere around
+/// it. Untrained (before the first
 /// update that saw data) it samples nothing and has pdf 0.
 #[derive(Clone, Debug)]
 pub struct GmmGuide {
@@ -1023,7 +1007,7 @@ impl GuidingDistribution for GmmGuide {
         }
     }
 
-    /// Clips and buffers the batch's rays (§3.3 of the octree note): the segment for a non-glossy
+    /// Clips and buffers the batch's rays (`docs/design/octree.md` §3.3): the segment for a non-glossy
     /// endpoint, the forward and backward half-lines for a glossy one. Segments with a non-finite or
     /// negative weight, an invalid pdf or geometry are dropped, zero weights skipped. The mixtures are
     /// untouched until `update`.

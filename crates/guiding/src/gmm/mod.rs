@@ -1,4 +1,4 @@
-//! Focal path guiding with a spatial Gaussian mixture (design note `gmm-focal-guiding.md`): the
+//! Focal path guiding with a spatial Gaussian mixture (`docs/design/gmm.md`): the
 //! project's own method, the successor of the [`crate::octree`] baseline.
 //!
 //! - [`GmmGuide`] is the guide: converging and diverging mixtures, exact directional pdf, hemisphere

@@ -3,7 +3,8 @@
 //! the converging + diverging pair trained from path segments, [`load_nose`]/[`store_nose`] the authors'
 //! dump format.
 //!
-//! This is the baseline, kept faithful to the authors' code (`/work/shared/design/focal-guiding-octree.md`).
+//! This is the baseline, kept faithful to the authors' code (`docs/design/octree.md`, whose sections the
+//! octree's doc comments cite as §N).
 //! Deviations, all leaving the learned distribution unchanged up to float rounding:
 //! - splats are applied in `update()` rather than during rendering (the model is read-only during an
 //!   iteration, so this is equivalent), in fixed-size chunks with per-chunk `f64` accumulators reduced

@@ -12,7 +12,8 @@ use std::time::Duration;
 /// How far behind its origin a ray starts for the BVH traversal. `obvhs`' node test (0.4) culls every
 /// box the ray leaves within 1e-4 of its origin, ignoring the ray's own least distance: a path vertex
 /// nearer than that to another surface (a room's corner, a gap) saw through it, and on the camera
-/// obscura such leaks to the bright sky were the brightest samples of every guided render.
+/// obscura such leaks to the bright sky were the brightest samples of every guided render
+/// (docs/experiments/2026-12-03-bvh-near-hits.md).
 const TRAVERSAL_SHIFT: f32 = 2e-4;
 
 /// Marks [`TriPrim::tri`] as an index into [`BvhAccel::analytic`] instead of a triangle index.

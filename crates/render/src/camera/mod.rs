@@ -1,8 +1,8 @@
 //! Sensors: the perspective pinhole camera and the thin-lens camera of Mitsuba 3.
 //!
-//! Conventions (Mitsuba 3, see the design notes): the camera looks along local +Z, local +Y is up and
-//! local +X is the image's *left* (the `lookat` frame has left = up × dir), so image column u grows
-//! towards world dir × up and row 0 is the top. Rays start on the near clip plane and stop at the far
+//! Conventions (Mitsuba 3, see `docs/design/mitsuba-conventions.md`): the camera looks along local +Z,
+//! local +Y is up and local +X is the image's *left* (the `lookat` frame has left = up × dir), so image
+//! column u grows towards world dir × up and row 0 is the top. Rays start on the near clip plane and stop at the far
 //! clip plane. Film positions are continuous pixel coordinates of the full film, (0, 0) being the
 //! top-left corner of the top-left pixel (pixel centres at +0.5); a crop window does not change them.
 
