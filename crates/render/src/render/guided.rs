@@ -39,11 +39,10 @@ pub const MAX_TRAINING_PASS_SAMPLES: u64 = 1 << 20;
 
 /// A time-budget render compares the guided iterations with the unguided first one ([`cross_check`])
 /// after every guided training iteration, but gives guiding up only from this check on (0-based): the
-/// first checks rest on a guide that has learned little and on images of two samples per pixel. On the
-/// glass caustic the guide found the caustic only in its eighth to tenth iteration in several seeds, and
-/// in a dim room an iteration that missed the light looks as quiet as the Cornell box; waiting costs a
-/// non-focal scene three guided iterations (a tenth of the default budget), whose images the fallback's
-/// combination keeps ([`fallback_weights`]).
+/// first checks rest on a guide that has learned little and on images of two samples per pixel, and in
+/// a dim room an iteration that missed the light looks as quiet as the Cornell box. Waiting costs a
+/// non-focal scene a few guided iterations, whose images the fallback's combination keeps
+/// ([`fallback_weights`]). Measured in docs/experiments/2026-12-07-decisions-missing-the-light.md.
 pub const FIRST_DECISIVE_CHECK: usize = 2;
 
 /// Guiding is given up at the first decisive check where its inefficiency (relative error × time) is
@@ -54,15 +53,14 @@ pub const FIRST_THRESHOLD: f64 = 1.0;
 pub const LATER_THRESHOLD: f64 = 2.0;
 /// The first decisive check's threshold where the guided vertices' pooled second-moment ratio
 /// ([`IterationStats::moments`], BSDF alone over the mixture) is below 1, i.e. where the guide adds
-/// local variance rather than finding what the BSDF misses (veach-mis: 0.77–0.93 in every guided
-/// iteration).
+/// local variance rather than finding what the BSDF misses (as on veach-mis).
 pub const FIRST_THRESHOLD_WITHOUT_MOMENT_GAIN: f64 = 0.5;
 
 /// Where the guided vertices' pooled second-moment ratio (BSDF alone over the mixture) is at least this,
 /// guiding is never given up: the guide finds light the BSDF finds rarely, and the image check is then
-/// at the mercy of whether the few samples behind it saw that light. The non-focal scenes' ratio stayed
-/// at most 1.37 (the Cornell box) and 0.93 (veach-mis); the glass caustic's jumps to 2–300 in the
-/// iterations after its guide found the caustic.
+/// at the mercy of whether the few samples behind it saw that light. The non-focal scenes stay below it
+/// and a focal scene's ratio jumps far above it once its guide finds the light
+/// (docs/experiments/2026-12-07-decisions-missing-the-light.md).
 pub const MOMENT_GAIN_TO_KEEP_GUIDING: f64 = 2.0;
 
 /// The threshold of the `check`-th fallback check (0-based) given the pooled second-moment ratio of the
