@@ -261,7 +261,12 @@ def cmd_run(args):
                 if (name, variant, seed) in done:
                     continue
                 image = work / f"{out.stem}_{name}_{variant}_{seed}.exr"
-                cmd = [binary, "render", s["path"], *s["args"], *vargs, "--time", budget, "--seed", seed,
+                scene_args = list(s["args"])
+                if "--integrator" in vargs and "--integrator" in scene_args:
+                    # the variant's integrator replaces the scene's
+                    k = scene_args.index("--integrator")
+                    del scene_args[k:k + 2]
+                cmd = [binary, "render", s["path"], *scene_args, *vargs, "--time", budget, "--seed", seed,
                        "-q", "-o", image]
                 if getattr(args, "save_iterations", False) and "--guiding" in vargs and binary == str(FOCAL):
                     cmd += ["--save-iterations", image.with_suffix("")]
