@@ -16,6 +16,7 @@ use focal_render::color::srgb_to_linear;
 use focal_render::film::Image;
 use focal_render::metrics::{image_errors, per_pixel_errors, ImageErrors};
 use focal_render::render::guide_view::viridis;
+use focal_render::score::{score, Score};
 use focal_render::two_reference::two_reference_rel_mse;
 use std::path::{Path, PathBuf};
 
@@ -108,6 +109,7 @@ struct Judgement {
     image: Image,
     errors: ImageErrors,
     rel_mse_two_references: Option<f64>,
+    score: Score,
     spp: u64,
     seconds: f64,
 }
@@ -124,6 +126,8 @@ struct Row {
     ldr_flip: f64,
     /// relMSE against the true image from both references (with `--second-reference`).
     rel_mse_two_references: Option<f64>,
+    /// The benchmark's score (bias check, exposure-normalised relMSE): see `focal_render::score`.
+    score: Score,
 }
 
 /// Runs `focal compare`.
@@ -213,9 +217,11 @@ pub fn run(a: CompareArgs) -> Result<()> {
                 image,
                 errors,
                 rel_mse_two_references,
+                score,
                 spp,
                 seconds,
             } = judge(&output, &reference, second_reference.as_ref(), &a)?;
+            warn_if_like_black(method, seed, &score);
             if seed == 0 {
                 write_error_image(
                     &image,
@@ -248,6 +254,7 @@ pub fn run(a: CompareArgs) -> Result<()> {
                 errors,
                 ldr_flip,
                 rel_mse_two_references,
+                score,
             });
         }
     }
@@ -683,6 +690,7 @@ fn run_args(
             load_guide: None,
             force_guide: false,
             guide_image,
+            save_iterations: None,
         },
     }
 }
@@ -701,15 +709,37 @@ fn judge(
         .map(|b| two_reference_rel_mse(&image, reference, b, a.epsilon, a.outliers))
         .transpose()
         .map_err(anyhow::Error::msg)?;
+    let score = score(&image, reference, second_reference).map_err(anyhow::Error::msg)?;
     let sidecar: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(output.with_extension("json"))?)?;
     Ok(Judgement {
         image,
         errors,
         rel_mse_two_references,
+        score,
         spp: sidecar["spp"].as_u64().unwrap_or(0),
         seconds: sidecar["render_s"].as_f64().unwrap_or(0.0),
     })
+}
+
+/// Warns when a run's image is too dark or too bright to judge by its error (the bias check of
+/// `focal_render::score` failed), or when its error is within a factor 2 of a black image's: then an
+/// image that missed the light would score as well, and the relMSE ranks nothing.
+fn warn_if_like_black(method: &str, seed: u64, s: &Score) {
+    if s.failed {
+        eprintln!(
+            "warning: {method} (seed {seed}): its image, brightest 0.1% of pixels left out, is {:.2} \
+             of the reference's brightness: it missed light paths (or holds them only in fireflies)",
+            s.trimmed_mean_ratio
+        );
+    }
+    if s.scores_like_black() {
+        eprintln!(
+            "warning: {method} (seed {seed}): relMSE {:.3} (exposure-normalised) against {:.3} for a \
+             black image: at this budget the error does not tell a render from one that found no light",
+            s.rel_mse, s.black_rel_mse
+        );
+    }
 }
 
 /// A false-colour image of the per-pixel relMSE, log scale from 1e-4 (dark) to 10 (bright).

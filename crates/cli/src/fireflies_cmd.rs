@@ -92,6 +92,7 @@ fn guiding_args(a: &FirefliesArgs) -> GuidingArgs {
         load_guide: Some(a.load_guide.clone()),
         force_guide: a.force_guide,
         guide_image: false,
+        save_iterations: None,
     }
 }
 

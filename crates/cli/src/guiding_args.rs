@@ -44,11 +44,12 @@ pub struct GuidingArgs {
     #[arg(long)]
     pub no_split: bool,
     /// Never give up guiding. By default a time-budget render compares, after every guided training
-    /// iteration, the guided images so far with the unguided first iteration's; where guiding's relative
-    /// error times its render time is more than 0.3 times the path tracer's at the first check, more
-    /// than it at the second (more than half of it where the guided vertices' second-moment ratio shows
-    /// no gain) or more than twice it at a later one, it renders the rest of the budget unguided (the
-    /// Cornell box, veach-mis). Guiding is kept whatever the images say where that ratio is at least 2.
+    /// iteration, the guided images so far with the unguided first iteration's; from the third check on,
+    /// where guiding's relative error times its render time is more than the path tracer's (more than
+    /// half of it where the guided vertices' second-moment ratio shows no gain), or more than twice it
+    /// at a later check, it renders the rest of the budget unguided (the Cornell box, veach-mis).
+    /// Guiding is kept whatever the images say where that ratio is at least 2, and where the comparison
+    /// had nothing to go on.
     #[arg(long)]
     pub no_fallback: bool,
     /// Octree relative split threshold (orth.threshold).
@@ -76,6 +77,11 @@ pub struct GuidingArgs {
     /// projected over the render, or the octree leaves' density on a slice through the densest leaf.
     #[arg(long)]
     pub guide_image: bool,
+    /// Also write every iteration's image as its two interleaved halves, DIR/iteration_K_a.exr and
+    /// _b.exr (K as the sidecar's `iterations[].index`, which gives their spp, time and weight), for
+    /// studying how iterations combine.
+    #[arg(long, value_name = "DIR")]
+    pub save_iterations: Option<PathBuf>,
 }
 
 /// The guided render a run asks for: `--guiding` or a loaded guide (`loaded`: its file and method) on

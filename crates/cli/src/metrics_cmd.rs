@@ -4,8 +4,10 @@ use crate::flip::ldr_flip;
 use crate::json_out;
 use anyhow::{Context, Result};
 use clap::Args;
+use focal_render::agreement::{agreement, VARIANCE_LAYER};
 use focal_render::film::Image;
 use focal_render::metrics::{image_errors, DEFAULT_REL_EPSILON, FIREFLY_PIXEL_FRACTION};
+use focal_render::score::score;
 use focal_render::two_reference::two_reference_rel_mse;
 use std::io::Write;
 use std::path::PathBuf;
@@ -46,11 +48,18 @@ pub fn run(a: MetricsArgs) -> Result<()> {
     let reference = read(&a.reference)?;
     let e = image_errors(&image, &reference, a.epsilon, a.outliers).map_err(anyhow::Error::msg)?;
     let (flip, _) = ldr_flip(&image, &reference, a.flip_exposure)?;
-    let truth = match &a.second_reference {
-        Some(p) => Some(
-            two_reference_rel_mse(&image, &reference, &read(p)?, a.epsilon, a.outliers)
+    let second = a.second_reference.as_ref().map(read).transpose()?;
+    let truth = match &second {
+        Some(b) => Some(
+            two_reference_rel_mse(&image, &reference, b, a.epsilon, a.outliers)
                 .map_err(anyhow::Error::msg)?,
         ),
+        None => None,
+    };
+    let judged = score(&image, &reference, second.as_ref()).map_err(anyhow::Error::msg)?;
+    // Two references (the image too carries a variance layer): do they agree within their error bars?
+    let agree = match image.layer(VARIANCE_LAYER) {
+        Some(_) => Some(agreement(&image, &reference).map_err(anyhow::Error::msg)?),
         None => None,
     };
     if let Some(p) = &a.json {
@@ -59,6 +68,10 @@ pub fn run(a: MetricsArgs) -> Result<()> {
         v["flip_exposure"] = serde_json::json!(a.flip_exposure);
         if let Some(t) = truth {
             v["rel_mse_two_references"] = serde_json::json!(t);
+        }
+        v["score"] = serde_json::to_value(judged)?;
+        if let Some(g) = agree {
+            v["agreement"] = serde_json::to_value(g)?;
         }
         return json_out::write(p, &v);
     }
@@ -80,6 +93,32 @@ pub fn run(a: MetricsArgs) -> Result<()> {
     );
     if let Some(t) = truth {
         text += &format!("relMSE against the truth, both references' noise removed {t:.6e}\n");
+    }
+    text +=
+        &format!(
+        "score: exposure-normalised relMSE {:.6e} (a black image: {:.6e}); image mean {:.4} of \
+         the {}'s, {:.4} with the brightest 0.1% of pixels left out{}\n",
+        judged.rel_mse,
+        judged.black_rel_mse,
+        judged.mean_ratio,
+        if second.is_some() { "truth" } else { "reference" },
+        judged.trimmed_mean_ratio,
+        if judged.failed { ": FAILED (off by more than 30%)" } else { "" }
+    );
+    if let Some(g) = agree {
+        text +=
+            &format!(
+            "agreement of the two references: mean ratio {:.4} ± {:.4} (z {:.2}); {} of {} blocks \
+             beyond 3 sigma (largest |z| {:.2}, mean z² {:.2}): {}\n",
+            g.mean_ratio,
+            g.mean_ratio_sigma,
+            g.image_z,
+            g.blocks_beyond_limit,
+            g.blocks,
+            g.max_block_z,
+            g.mean_block_z2,
+            if g.agree { "they agree" } else { "they DISAGREE" }
+        );
     }
     // A closed pipe (`| head`) is the reader's choice, not an error worth a panic.
     let _ = std::io::stdout().lock().write_all(text.as_bytes());

@@ -1,12 +1,14 @@
-//! `focal reference`: a long, resumable, unguided render for use as a reference, with its per-pixel
-//! variance of the mean.
+//! `focal reference`: a long, resumable render for use as a reference, with its per-pixel variance of
+//! the mean: unguided, or guided by a saved guide (`--load-guide`), so that a scene's truth can come from
+//! two independent references made by different methods.
 
+use crate::guiding_args::load_guide_for;
 use crate::input_checks;
 use crate::interrupt;
 use crate::render_cmd::{parse_defines, parse_res, parse_sampler};
 use anyhow::{bail, Context, Result};
 use clap::Args;
-use focal_render::integrator::{Integrator, PathIntegrator};
+use focal_render::integrator::{GuidedPathIntegrator, GuidedSettings, Integrator, PathIntegrator};
 use focal_render::load::load_scene;
 use focal_render::render::memory::plain_render_bytes;
 use focal_render::render::reference::{
@@ -66,6 +68,18 @@ pub struct ReferenceArgs {
     /// Override the sampler: independent or sobol.
     #[arg(long)]
     pub sampler: Option<String>,
+    /// Override the scene's integrator plugin (e.g. `path` for scenes written for another renderer's
+    /// integrator); its path settings (depth, emitter visibility) are used.
+    #[arg(long)]
+    pub integrator: Option<String>,
+    /// Render with this trained guide (saved by `focal render --save-guide`) and the guided path tracer's
+    /// default settings, instead of the plain path tracer. The guide is not trained further, so the
+    /// reference stays unbiased; the guide file is part of the checkpoint's key.
+    #[arg(long, value_name = "GUIDE")]
+    pub load_guide: Option<PathBuf>,
+    /// Use a --load-guide guide even if it was trained on another scene.
+    #[arg(long, requires = "load_guide")]
+    pub force_guide: bool,
     /// Also write a tonemapped PNG.
     #[arg(long)]
     pub png: bool,
@@ -85,11 +99,12 @@ pub fn run(a: ReferenceArgs) -> Result<()> {
     input_checks::threads(a.threads)?;
     input_checks::output_file("-o", &a.output, "exr", "the reference")?;
     let params = parse_defines(&a.defines)?;
-    let opts = BuildOptions {
+    let options = BuildOptions {
+        integrator_override: a.integrator.clone(),
         film_size: a.res.as_deref().map(parse_res).transpose()?,
         ..BuildOptions::default()
     };
-    let loaded = load_scene(&a.scene, &params, &opts)?;
+    let loaded = load_scene(&a.scene, &params, &options)?;
     for w in &loaded.warnings {
         eprintln!("warning: {w}");
     }
@@ -97,19 +112,44 @@ pub fn run(a: ReferenceArgs) -> Result<()> {
         Some(s) => parse_sampler(s)?,
         None => loaded.sampler.kind,
     };
-    // A reference is unguided: a guided scene is rendered by the plain path tracer with its path settings.
+    // Without a guide, a guided scene is rendered by the plain path tracer with its path settings.
     let path = match &loaded.integrator {
         IntegratorSpec::Path(p) => *p,
         IntegratorSpec::Guided(g) => g.settings.path,
     };
-    let integrator: Box<dyn Integrator> = Box::new(PathIntegrator { settings: path });
+    let guide_bytes = match &a.load_guide {
+        Some(p) => std::fs::read(p).with_context(|| format!("reading {}", p.display()))?,
+        None => Vec::new(),
+    };
+    let guide = match &a.load_guide {
+        Some(p) => Some(load_guide_for(p, &loaded.scene, &a.scene, a.force_guide)?.guide),
+        None => None,
+    };
+    let guided_settings = GuidedSettings {
+        path,
+        ..GuidedSettings::default()
+    };
+    let integrator: Box<dyn Integrator + '_> = match &guide {
+        Some(g) => Box::new(GuidedPathIntegrator {
+            settings: guided_settings,
+            guide: Some(g.as_ref()),
+            record: false,
+        }),
+        None => Box::new(PathIntegrator { settings: path }),
+    };
     let scene_bytes =
         std::fs::read(&a.scene).with_context(|| format!("reading {}", a.scene.display()))?;
     let defines = format!("{params:?}");
-    let mut shape = format!(
-        "seed={} sampler={sampler:?} pass={} path={path:?}",
-        a.seed, a.pass_spp
-    );
+    let mut shape = match &guide {
+        Some(_) => format!(
+            "seed={} sampler={sampler:?} pass={} guided={guided_settings:?}",
+            a.seed, a.pass_spp
+        ),
+        None => format!(
+            "seed={} sampler={sampler:?} pass={} path={path:?}",
+            a.seed, a.pass_spp
+        ),
+    };
     if let Some(res) = &a.res {
         shape += &format!(" res={res}");
     }
@@ -117,7 +157,12 @@ pub fn run(a: ReferenceArgs) -> Result<()> {
     let (fw, fh) = (loaded.film.crop_size.x, loaded.film.crop_size.y);
     let needed = 2 * plain_render_bytes(&loaded.film, false) + fw as u64 * fh as u64 * 48;
     input_checks::memory(needed, &format!("a {fw}x{fh} reference"))?;
-    let key = fnv1a64(&[&scene_bytes, defines.as_bytes(), shape.as_bytes()]);
+    let key = fnv1a64(&[
+        &scene_bytes,
+        defines.as_bytes(),
+        shape.as_bytes(),
+        &guide_bytes,
+    ]);
     let settings = ReferenceSettings {
         render: RenderSettings {
             spp: a.spp,
@@ -201,6 +246,7 @@ pub fn run(a: ReferenceArgs) -> Result<()> {
         "sampler": format!("{sampler:?}"),
         "seed": a.seed,
         "defines": params,
+        "loaded_guide": a.load_guide.as_ref().map(|p| p.display().to_string()),
         "spp": stats.spp,
         "pass_spp": a.pass_spp,
         "passes": stats.passes,

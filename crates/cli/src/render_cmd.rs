@@ -137,6 +137,9 @@ pub fn run(a: RenderArgs) -> Result<()> {
     if let Some(p) = &a.guiding.save_guide {
         input_checks::output_any("--save-guide", p)?;
     }
+    if let Some(dir) = &a.guiding.save_iterations {
+        input_checks::output_folder("--save-iterations", dir)?;
+    }
     let sampler_override = a.sampler.as_deref().map(parse_sampler).transpose()?;
     let combine = match a.guiding.combine.as_str() {
         "variance" | "inverse-variance" => Combine::InverseVariance,
@@ -304,6 +307,22 @@ pub fn run(a: RenderArgs) -> Result<()> {
                     vis.write_png(&png, 0.0)
                         .with_context(|| format!("writing {}", png.display()))?;
                     guide_caption = Some(caption);
+                }
+            }
+            if let Some(dir) = &g.save_iterations {
+                std::fs::create_dir_all(dir)
+                    .with_context(|| format!("creating {}", dir.display()))?;
+                let rendered = out.iterations.iter().filter(|s| s.spp > 0);
+                for (it, s) in out.iteration_images.iter().zip(rendered) {
+                    for (half, (img, spp)) in [("a", &it.a), ("b", &it.b)] {
+                        if *spp > 0 {
+                            let p = dir.join(format!("iteration_{:02}_{half}.exr", s.index));
+                            let mut img = img.clone();
+                            img.sanitize();
+                            img.write_exr(&p)
+                                .with_context(|| format!("writing {}", p.display()))?;
+                        }
+                    }
                 }
             }
             // An interrupted training leaves a guide that was not updated with its last iteration's

@@ -372,6 +372,23 @@ fn a_guide_from_another_scene_is_refused_unless_forced() {
         &["obscura.xml", "cbox.xml", "--force-guide"],
     );
     assert!(err.contains("trained on"), "{err}");
+    // `reference --load-guide` checks the same binding (before rendering: its spp never ends).
+    let reference_out = s(&d.join("ref.exr"));
+    assert_refused(
+        &[
+            "reference",
+            &cb,
+            "-D",
+            "res=8",
+            "--spp",
+            ENDLESS_SPP,
+            "--load-guide",
+            &guide,
+            "-o",
+            &reference_out,
+        ],
+        &["obscura.xml", "cbox.xml", "--force-guide"],
+    );
     // Forced: rendered, with a warning.
     let (code, stderr, _) = run_full(&[
         "render",

@@ -6,6 +6,7 @@
 //! deterministically for a fixed seed.
 
 pub mod accel;
+pub mod agreement;
 pub mod bsdf;
 pub mod camera;
 pub mod color;
@@ -21,10 +22,12 @@ pub mod integrator;
 pub mod load;
 pub mod mesh;
 pub mod metrics;
+pub mod plugins;
 pub mod ray;
 pub mod render;
 pub mod sampler;
 pub mod scene;
+pub mod score;
 pub mod testing;
 pub mod texture;
 pub mod two_reference;

@@ -114,7 +114,7 @@ impl Sampler {
     }
 
     /// Next 1D sample in [0, 1).
-    #[inline]
+    #[inline(always)]
     pub fn next_1d(&mut self) -> f32 {
         match self.kind {
             SamplerKind::Independent => self.rng.next_f32(),

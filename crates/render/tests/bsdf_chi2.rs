@@ -3,8 +3,8 @@
 
 use focal_render::bsdf::{
     Blend, Bsdf, BsdfContext, Conductor, Dielectric, Diffuse, DiffuseTransmitter, Mask, Microfacet,
-    MicrofacetKind, NormalMap, Plastic, RoughConductor, RoughDielectric, RoughPlastic,
-    ThinDielectric, TwoSided,
+    MicrofacetKind, NormalMap, Phong, Plastic, RoughConductor, RoughDielectric, RoughPlastic,
+    ThinDielectric, TwoSided, Ward, WardVariant,
 };
 use focal_render::color::Rgb;
 use focal_render::texture::Texture;
@@ -312,6 +312,36 @@ fn cases() -> Vec<Case> {
         &below,
         Energy::AtMostOne,
     );
+    for (n, spec) in [(30.0, 0.4), (3.0, 0.9)] {
+        add(
+            format!("phong n={n} s={spec}"),
+            &Bsdf::Phong(Box::new(Phong::new(
+                Texture::constant(n),
+                Texture::constant(spec),
+                Texture::constant(1.0 - spec),
+            ))),
+            &front,
+            Energy::AtMostOne,
+        );
+    }
+    for (variant, au, av) in [
+        (WardVariant::Balanced, 0.2, 0.2),
+        (WardVariant::Ward, 0.3, 0.1),
+        (WardVariant::WardDuer, 0.15, 0.4),
+    ] {
+        add(
+            format!("ward {variant:?} {au} {av}"),
+            &Bsdf::Ward(Box::new(Ward::new(
+                variant,
+                au,
+                av,
+                Texture::constant(0.3),
+                Texture::constant(0.3),
+            ))),
+            &front,
+            Energy::AtMostOne,
+        );
+    }
     add(
         "difftrans".into(),
         &Bsdf::DiffuseTransmitter(DiffuseTransmitter {
@@ -431,6 +461,11 @@ fn chi2_dielectrics() {
 #[test]
 fn chi2_plastics_and_twosided() {
     check_cases(&["plastic", "roughplastic", "twosided"]);
+}
+
+#[test]
+fn chi2_phong_and_ward() {
+    check_cases(&["phong", "ward"]);
 }
 
 #[test]

@@ -13,7 +13,16 @@ fn bundled(name: &str) -> PathBuf {
 }
 
 fn renders(name: &str) {
-    let scene = load(&bundled(name), &[("res", "24")]);
+    renders_with(name, &[("res", "24")]);
+}
+
+/// The interiors have a 16:9 film of `width` x `height`.
+fn interior_renders(name: &str) {
+    renders_with(name, &[("width", "32"), ("height", "18")]);
+}
+
+fn renders_with(name: &str, defines: &[(&str, &str)]) {
+    let scene = load(&bundled(name), defines);
     let out = render_loaded(&scene, &settings(4, 1, 0));
     assert!(all_finite(&out.image), "{name}: non-finite pixels");
     let mean = out.image.mean_rgb();
@@ -54,6 +63,26 @@ fn glass_caustic_renders() {
 }
 
 #[test]
+fn dining_room_renders() {
+    interior_renders("dining_room.xml");
+}
+
+#[test]
+fn stair_hall_renders() {
+    interior_renders("stair_hall.xml");
+}
+
+#[test]
+fn living_room_renders() {
+    interior_renders("living_room.xml");
+}
+
+#[test]
+fn door_ajar_renders() {
+    interior_renders("door_ajar.xml");
+}
+
+#[test]
 fn every_bundled_scene_is_tested() {
     let mut names: Vec<String> = std::fs::read_dir(bundled(""))
         .unwrap()
@@ -65,11 +94,15 @@ fn every_bundled_scene_is_tested() {
         names,
         [
             "cbox.xml",
+            "dining_room.xml",
+            "door_ajar.xml",
             "door_gap.xml",
             "glass_caustic.xml",
             "lens_focus.xml",
+            "living_room.xml",
             "obscura.xml",
-            "shaded_lights.xml"
+            "shaded_lights.xml",
+            "stair_hall.xml"
         ]
     );
 }

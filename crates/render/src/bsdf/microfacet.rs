@@ -219,24 +219,34 @@ impl Microfacet {
     }
 }
 
-/// The error function (Numerical Recipes' Chebyshev fit of erfc, relative error < 1.2e-7).
+/// The error function (Numerical Recipes' Chebyshev fit of erfc, relative error < 1.2e-7), in single
+/// precision: Beckmann sampling calls it and [`erfinv`] a dozen times per sample, and the f64
+/// exponentials were a tenth of a textured interior's render time.
+#[inline]
 pub fn erf(x: f32) -> f32 {
-    let x = x as f64;
     let z = x.abs();
     let t = 1.0 / (1.0 + 0.5 * z);
-    let poly = -z * z - 1.265_512_23
-        + t * (1.000_023_68
+    let poly = -z * z - 1.265_512_2
+        + t * (1.000_023_7
             + t * (0.374_091_96
                 + t * (0.096_784_18
                     + t * (-0.186_288_06
                         + t * (0.278_868_07
-                            + t * (-1.135_203_98
-                                + t * (1.488_515_87 + t * (-0.822_152_23 + t * 0.170_872_77))))))));
+                            + t * (-1.135_204
+                                + t * (1.488_515_9 + t * (-0.822_152_2 + t * 0.170_872_77))))))));
     let erfc = t * poly.exp();
-    (if x >= 0.0 { 1.0 - erfc } else { erfc - 1.0 }) as f32
+    if x >= 0.0 {
+        1.0 - erfc
+    } else {
+        erfc - 1.0
+    }
 }
 
-/// The inverse error function (Giles 2010 single-precision fit, refined by two Newton steps).
+/// The inverse error function: Giles' (2010) single-precision fit, as Dr.Jit's `erfinv` (relative
+/// error about 1e-7 where it matters; at most 4.1e-7 in erf(erfinv(x)) − x). Beckmann's visible-normal
+/// sampling calls it five times per sample; refining it by Newton steps in f64 made it a quarter of a
+/// textured interior's render time.
+#[inline]
 pub fn erfinv(x: f32) -> f32 {
     let x = x.clamp(-1.0 + 1e-7, 1.0 - 1e-7);
     let mut w = -((1.0 - x) * (1.0 + x)).ln();
@@ -273,16 +283,7 @@ pub fn erfinv(x: f32) -> f32 {
         }
         p
     };
-    let mut y = (p * x) as f64;
-    let xd = x as f64;
-    for _ in 0..2 {
-        let e = erf(y as f32) as f64 - xd;
-        let d = 2.0 / std::f64::consts::PI.sqrt() * (-y * y).exp();
-        if d > 1e-30 {
-            y -= e / d;
-        }
-    }
-    y as f32
+    p * x
 }
 
 #[cfg(test)]
@@ -296,6 +297,13 @@ mod tests {
         for x in [-0.999f32, -0.7, -0.1, 0.0, 0.3, 0.9, 0.99] {
             assert!((erf(erfinv(x)) - x).abs() < 1e-5, "{x}");
         }
+        // The single-precision inverse over the whole domain: the round trip is as close as f32 allows.
+        let worst = (-99_999..100_000)
+            .map(|i| i as f32 / 100_000.0)
+            .map(|x| (erf(erfinv(x)) - x).abs())
+            .fold(0.0f32, f32::max);
+        eprintln!("largest |erf(erfinv(x)) - x|: {worst:e}");
+        assert!(worst < 1e-6, "{worst}");
     }
 
     #[test]

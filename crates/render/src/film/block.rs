@@ -189,16 +189,21 @@ impl ImageBlock {
         let ny = ((hi.y - lo.y + 1) as usize).min(wy.len());
         self.filter.eval_row(lo.x as f32 - pos.x, &mut wx[..nx]);
         self.filter.eval_row(lo.y as f32 - pos.y, &mut wy[..ny]);
-        for (j, &w_y) in wy[..ny].iter().enumerate() {
-            if w_y == 0.0 {
-                continue;
-            }
-            for (i, &w_x) in wx[..nx].iter().enumerate() {
-                let w = w_x as f64 * w_y as f64;
-                if w != 0.0 {
-                    self.accumulate(IVec2::new(lo.x + i as i32, lo.y + j as i32), values, w);
-                }
-            }
+        let (first, stride) = (
+            lo.y as usize * ext.x as usize + lo.x as usize,
+            ext.x as usize,
+        );
+        if self.channels == BASE_CHANNELS {
+            splat::<BASE_CHANNELS>(&mut self.data, first, stride, &wx[..nx], &wy[..ny], values);
+        } else {
+            splat::<{ BASE_CHANNELS + AOV_CHANNELS }>(
+                &mut self.data,
+                first,
+                stride,
+                &wx[..nx],
+                &wy[..ny],
+                values,
+            );
         }
         true
     }
@@ -259,5 +264,35 @@ impl ImageBlock {
         }
         let idx = (p.y as usize * ext.x as usize + p.x as usize) * self.channels;
         Some(&self.data[idx..idx + self.channels])
+    }
+}
+
+/// Adds w_x[i]·w_y[j]·`values` to the `C` channels of the stored pixels `first + j·stride + i` (the
+/// separable splat of [`ImageBlock::put`], with the channel count known at compile time so that the
+/// per-tap loop unrolls; the same products and sums, in the same order, as one tap at a time).
+#[inline]
+fn splat<const C: usize>(
+    data: &mut [f64],
+    first: usize,
+    stride: usize,
+    wx: &[f32],
+    wy: &[f32],
+    values: &[f64],
+) {
+    let values: &[f64; C] = values.try_into().expect("channel count");
+    for (j, &w_y) in wy.iter().enumerate() {
+        if w_y == 0.0 {
+            continue;
+        }
+        let row = (first + j * stride) * C;
+        let pixels = data[row..row + wx.len() * C].chunks_exact_mut(C);
+        for (&w_x, pixel) in wx.iter().zip(pixels) {
+            let w = w_x as f64 * w_y as f64;
+            if w != 0.0 {
+                for (dst, v) in pixel.iter_mut().zip(values) {
+                    *dst += w * v;
+                }
+            }
+        }
     }
 }

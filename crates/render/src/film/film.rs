@@ -99,18 +99,19 @@ impl FilmSpec {
     }
 }
 
-/// Reads a `<film>` (None gives Mitsuba's default film). `hdrfilm` is fully supported; `ldrfilm` is
-/// accepted with the same parameters and rendered the same way (focal always writes linear EXR plus an
-/// optional tonemapped PNG, so its tonemapping parameters are ignored). Other film plugins are errors.
+/// Reads a `<film>` (None gives Mitsuba's default film). `hdrfilm` is fully supported; `ldrfilm` and
+/// Mitsuba 0.6's `tiledhdrfilm` are accepted with the same parameters and rendered the same way (focal
+/// always writes linear EXR plus an optional tonemapped PNG, so tonemapping parameters are ignored).
+/// Other film plugins are errors.
 /// Reads `width`/`height` (768×576), the `rfilter` child (Gaussian σ = 0.5), `pixel_format` (rgb or
 /// rgba), and `crop_offset_x/y`, `crop_width/height` (default: the whole film).
 pub fn film_from_desc(film: Option<&ObjectDesc>) -> SceneResult<FilmSpec> {
     let Some(d) = film else {
         return Ok(FilmSpec::default());
     };
-    if !matches!(d.plugin.as_str(), "hdrfilm" | "ldrfilm") {
+    if !matches!(d.plugin.as_str(), "hdrfilm" | "ldrfilm" | "tiledhdrfilm") {
         return Err(d.error(format!(
-            "unsupported film type '{}' (supported: hdrfilm, ldrfilm)",
+            "unsupported film type '{}' (supported: hdrfilm, ldrfilm, tiledhdrfilm)",
             d.plugin
         )));
     }

@@ -5,12 +5,12 @@
 
 use super::path_trace::{LightEvent, PathObserver, PathTrace, Strategy, TracedVertex};
 use super::{
-    next_event_estimate, power_heuristic, resolve_pass_through, FirstHitAovs, Integrator,
-    PassThroughRun, PathSettings,
+    bsdf_context, next_event_estimate, power_heuristic, resolve_pass_through, FirstHitAovs,
+    Integrator, PassThroughRun, PathSettings,
 };
 use crate::bsdf::{Bsdf, BsdfContext};
 use crate::color::Rgb;
-use crate::ray::{offset_ray_origin, Ray};
+use crate::ray::{offset_ray_origin, CameraRay, Ray};
 use crate::sampler::Sampler;
 use crate::scene::Scene;
 use focal_guiding::{
@@ -235,7 +235,7 @@ impl Integrator for GuidedPathIntegrator<'_> {
     fn li(
         &self,
         scene: &Scene,
-        ray: Ray,
+        ray: &CameraRay,
         sampler: &mut Sampler,
         aovs: &mut FirstHitAovs,
         training: &mut Vec<TrainingSegment>,
@@ -250,7 +250,7 @@ impl GuidedPathIntegrator<'_> {
     pub fn li_traced(
         &self,
         scene: &Scene,
-        ray: Ray,
+        ray: &CameraRay,
         sampler: &mut Sampler,
         trace: &mut PathTrace,
     ) -> Rgb {
@@ -265,12 +265,13 @@ impl GuidedPathIntegrator<'_> {
     fn trace_path<O: PathObserver>(
         &self,
         scene: &Scene,
-        mut ray: Ray,
+        camera_ray: &CameraRay,
         sampler: &mut Sampler,
         aovs: &mut FirstHitAovs,
         training: &mut Vec<TrainingSegment>,
         observer: &mut O,
     ) -> Rgb {
+        let mut ray = camera_ray.ray;
         let s = &self.settings.path;
         if s.max_depth == 0 {
             return Rgb::ZERO;
@@ -346,7 +347,7 @@ impl GuidedPathIntegrator<'_> {
                         observer.light(depth, LightEvent::EmitterHit, emitted.element_sum() / 3.0);
                     }
                 }
-                let ctx = BsdfContext { uv: si.uv };
+                let ctx = bsdf_context(scene, &si, camera_ray.differential.as_ref(), depth == 0);
                 // A pass-through is no vertex: no guiding, no training vertex, no depth; the MIS state of
                 // the last vertex stays.
                 let Some(bsdf) = resolve_pass_through(

@@ -1,12 +1,11 @@
 //! Unidirectional path tracing with next-event estimation and MIS (Mitsuba `path`).
 
 use super::{
-    next_event_estimate, power_heuristic, resolve_pass_through, FirstHitAovs, Integrator,
-    PassThroughRun,
+    bsdf_context, next_event_estimate, power_heuristic, resolve_pass_through, FirstHitAovs,
+    Integrator, PassThroughRun,
 };
-use crate::bsdf::BsdfContext;
 use crate::color::Rgb;
-use crate::ray::{offset_ray_origin, Ray};
+use crate::ray::{offset_ray_origin, CameraRay, Ray};
 use crate::sampler::Sampler;
 use crate::scene::Scene;
 use focal_guiding::TrainingSegment;
@@ -68,7 +67,7 @@ impl Integrator for PathIntegrator {
     fn li(
         &self,
         scene: &Scene,
-        mut ray: Ray,
+        camera_ray: &CameraRay,
         sampler: &mut Sampler,
         aovs: &mut FirstHitAovs,
         _training: &mut Vec<TrainingSegment>,
@@ -77,6 +76,7 @@ impl Integrator for PathIntegrator {
         if s.max_depth == 0 {
             return Rgb::ZERO;
         }
+        let mut ray = camera_ray.ray;
         let mut result = Rgb::ZERO;
         let mut throughput = Rgb::ONE;
         let mut eta = 1.0f32;
@@ -128,7 +128,7 @@ impl Integrator for PathIntegrator {
                 }
             }
             let si = si.unwrap();
-            let ctx = BsdfContext { uv: si.uv };
+            let ctx = bsdf_context(scene, &si, camera_ray.differential.as_ref(), depth == 0);
             // A pass-through is no vertex: the MIS state of the last vertex stays, and so does the depth
             // (emission behind a mask is still reached by that vertex's direction).
             let Some(bsdf) = resolve_pass_through(

@@ -9,11 +9,20 @@
 //!   E[(U − G)²] = Var U + Var G   per pixel and channel (U unguided, G the pooled guided image),
 //!
 //! and Var G is known from the guided iterations' halves. The path tracer's relative error is therefore
-//! estimated as mean_p [mean_c (U − G)² − Var G] / (G² + ε), ε = 1e-2 as in relMSE, where a missed
-//! caustic shows up in full. Each estimator's inefficiency is its relative error times the time it took
-//! (relative error falls as 1/time); guiding pays if its inefficiency is the smaller.
+//! estimated as mean_p [mean_c (U − G)² − Var G] / (G² + ε), ε = 1e-2 times G's squared mean brightness
+//! (as the benchmark's exposure-normalised relMSE), where a missed caustic shows up in full. Each
+//! estimator's inefficiency is its relative error times the time it took (relative error falls as
+//! 1/time); guiding pays if its inefficiency is the smaller.
+//!
+//! Both estimates are means over pixels, and either can rest on a handful of them: a few fireflies (a
+//! guided sample that found the bright path in a dim room, or an unguided one), or nothing at all when
+//! neither image found any light. Such a comparison says nothing about which estimator is better, and
+//! an image that missed the light would win it. So each estimate carries the effective number of pixels
+//! it rests on, (Σ e_p)² / Σ e_p² over its per-pixel terms e_p, as a share of the image
+//! ([`CrossCheck::unguided_pixel_share`], [`CrossCheck::guided_pixel_share`]); the fallback trusts only
+//! comparisons where both are spread over many pixels.
 
-use super::combine::{IterationImage, RELATIVE_EPSILON};
+use super::combine::{relative_epsilon, IterationImage};
 
 /// The outcome of one comparison, for the JSON record.
 #[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
@@ -28,6 +37,26 @@ pub struct CrossCheck {
     pub guided_s: f64,
     /// Guided over unguided inefficiency (relative error × time): below 1 where guiding pays.
     pub inefficiency_ratio: f64,
+    /// The effective number of pixels the unguided error estimate rests on, as a share of the image (1
+    /// where every pixel contributes alike, about 1/P where one pixel holds it all, 0 without any).
+    pub unguided_pixel_share: f64,
+    /// The same for the guided error estimate.
+    pub guided_pixel_share: f64,
+}
+
+/// The effective number of terms a sum of `values` rests on, (Σ|v|)² / Σ v², as a share of their count
+/// (0 when all are 0).
+pub fn effective_share(values: &[f64]) -> f64 {
+    let (mut s1, mut s2) = (0.0f64, 0.0f64);
+    for v in values {
+        s1 += v.abs();
+        s2 += v * v;
+    }
+    if s2 > 0.0 && s2.is_finite() {
+        s1 * s1 / s2 / values.len() as f64
+    } else {
+        0.0
+    }
 }
 
 /// Compares the unguided iteration `unguided` (render time `unguided_s`) with the guided iterations
@@ -59,7 +88,16 @@ pub fn cross_check(
         })
         .collect();
     let pixels = u.rgb.len();
+    // The pooled guided image's brightness sets ε (first pass), then the per-pixel terms (second pass).
+    let mut pooled = crate::film::Image::new(u.width, u.height);
+    for ((wa, wb, _), (it, _)) in terms.iter().zip(guided) {
+        pooled.add_scaled(&it.a.0, *wa);
+        pooled.add_scaled(&it.b.0, *wb);
+    }
+    let epsilon = relative_epsilon(&pooled);
     let (mut rel_u, mut rel_g) = (0.0f64, 0.0f64);
+    let mut terms_u = Vec::with_capacity(pixels);
+    let mut terms_g = Vec::with_capacity(pixels);
     for p in 0..pixels {
         let mut g = [0.0f64; 3];
         let mut var_g = 0.0f64;
@@ -77,9 +115,11 @@ pub fn cross_check(
             .sum::<f64>()
             / 3.0;
         let m = (g[0] + g[1] + g[2]) / 3.0;
-        let norm = m * m + RELATIVE_EPSILON;
+        let norm = m * m + epsilon;
         rel_u += (d2 - var_g) / norm;
         rel_g += var_g / norm;
+        terms_u.push(d2 / norm);
+        terms_g.push(var_g / norm);
     }
     let rel_u = (rel_u / pixels.max(1) as f64).max(0.0);
     let rel_g = rel_g / pixels.max(1) as f64;
@@ -91,6 +131,8 @@ pub fn cross_check(
         guided_rel_error: rel_g,
         guided_s,
         inefficiency_ratio: if ratio.is_nan() { f64::INFINITY } else { ratio },
+        unguided_pixel_share: effective_share(&terms_u),
+        guided_pixel_share: effective_share(&terms_g),
     };
     (rel_u.is_finite() && rel_g.is_finite()).then_some(check)
 }
@@ -99,6 +141,7 @@ pub fn cross_check(
 mod tests {
     use super::*;
     use crate::film::Image;
+    use crate::render::combine::RELATIVE_EPSILON;
 
     use focal_testkit::TestRng;
 
@@ -133,7 +176,7 @@ mod tests {
     #[test]
     fn recovers_both_estimators_relative_errors() {
         let mut rng = TestRng::new(7);
-        let norm = MEAN * MEAN + RELATIVE_EPSILON;
+        let norm = MEAN * MEAN * (1.0 + RELATIVE_EPSILON);
         // Unguided: 8 spp of per-sample σ 0.4 in 1 s; guided: two iterations of 4 spp, σ 0.2, 1 s each.
         let u_sigma2 = 0.4f64 * 0.4 / 8.0;
         let unguided = IterationImage {
@@ -162,7 +205,7 @@ mod tests {
         };
         let g = iteration(&mut rng, 8, 0.1);
         let c = cross_check(&unguided, 1.0, &[(&g, 1.0)]).unwrap();
-        let norm = MEAN * MEAN + RELATIVE_EPSILON;
+        let norm = MEAN * MEAN * (1.0 + RELATIVE_EPSILON);
         assert!(close(c.unguided_rel_error, 0.01 / norm, 0.05), "{c:?}");
         // The guided variance 0.1²/8 against 0.1² at equal time.
         assert!(close(c.inefficiency_ratio, 0.125, 0.08), "{c:?}");
@@ -188,5 +231,44 @@ mod tests {
         let same = cross_check(&g, 1.0, &[(&g, 1.0)]).unwrap();
         assert_eq!(same.unguided_rel_error, 0.0);
         assert!(same.inefficiency_ratio.is_infinite());
+    }
+
+    #[test]
+    fn a_comparison_resting_on_fireflies_or_on_nothing_shows_a_small_pixel_share() {
+        let mut rng = TestRng::new(23);
+        // Smooth noise everywhere: both estimates rest on most pixels.
+        let u = iteration(&mut rng, 4, 0.2);
+        let g = iteration(&mut rng, 4, 0.1);
+        let c = cross_check(&u, 1.0, &[(&g, 1.0)]).unwrap();
+        assert!(
+            c.unguided_pixel_share > 0.3 && c.guided_pixel_share > 0.3,
+            "{c:?}"
+        );
+        // A guided iteration that found a bright path in three pixels only, in a dark image: its error
+        // estimate rests on those three.
+        let dark = |rng: &mut TestRng| noisy(rng, -MEAN + 0.01, 0.0001);
+        let mut found = IterationImage {
+            a: (dark(&mut rng), 2),
+            b: (dark(&mut rng), 2),
+        };
+        for p in [100, 2000, 9000] {
+            found.a.0.rgb[p] = [50.0; 3];
+        }
+        let quiet = IterationImage {
+            a: (dark(&mut rng), 2),
+            b: (dark(&mut rng), 2),
+        };
+        let c = cross_check(&quiet, 1.0, &[(&found, 1.0)]).unwrap();
+        assert!(c.guided_pixel_share < 1e-3, "{c:?}");
+        assert!(c.unguided_pixel_share < 1e-3, "{c:?}");
+        // Two black images: nothing to rest on.
+        let black = IterationImage {
+            a: (Image::new(SIDE, SIDE), 2),
+            b: (Image::new(SIDE, SIDE), 2),
+        };
+        let c = cross_check(&black, 1.0, &[(&black, 1.0)]).unwrap();
+        assert_eq!((c.unguided_pixel_share, c.guided_pixel_share), (0.0, 0.0));
+        assert_eq!(effective_share(&[1.0, 1.0, 1.0, 1.0]), 1.0);
+        assert_eq!(effective_share(&[0.0, 0.0, 4.0, 0.0]), 0.25);
     }
 }

@@ -11,8 +11,8 @@
 //!
 //! Under a time budget a training iteration whose deadline has passed before it starts is skipped (a
 //! slow guided pass must not push the whole render past its budget), and with `fallback` the render
-//! checks after every guided training iteration ([`FALLBACK_THRESHOLDS`]) whether guiding pays for its cost
-//! at all, by comparing their images with the unguided first iteration's (see
+//! checks after every guided training iteration ([`fallback_threshold`]) whether guiding pays for its
+//! cost at all, by comparing their images with the unguided first iteration's (see
 //! [`GuidedRenderSettings::fallback`]). Training segments carry per-pixel weights from the
 //! image so far ([`relative_pixel_weights`]), so that what is learned from second moments weighs every
 //! pixel's relative error alike.
@@ -21,7 +21,7 @@
 //! read-only. Training segments are handed to the guide after every pass in tile order, so a fixed seed
 //! and sample budget give the same learned model and image whatever the number of threads.
 
-use super::combine::{inverse_variance_weights, weighted_image, Combine, IterationImage};
+use super::combine::{robust_inverse_variance_weights, weighted_image, Combine, IterationImage};
 use super::cross_check::{cross_check, CrossCheck};
 use super::pixel_weights::relative_pixel_weights;
 use super::{next_pass_spp, PassRunner, Progress, ProgressCounter, RenderSettings, RenderStats};
@@ -37,61 +37,54 @@ use std::time::{Duration, Instant};
 /// Pixel samples per pass at most during training, bounding the memory of one pass's segments.
 pub const MAX_TRAINING_PASS_SAMPLES: u64 = 1 << 20;
 
-/// A time-budget render checks whether guiding pays ([`cross_check`]) after every guided training
-/// iteration: guiding is given up at the first check whose ratio of guided to unguided inefficiency
-/// (relative error × time) exceeds its threshold, one per check, the last one for all later checks.
-/// Later checks matter: the two-halves estimate of a few guided samples per pixel misses their rare
-/// bright paths, which show up as the guided iterations accumulate (veach-mis at 768×512, 30 s, two of
-/// six seeds: 0.25 and 0.8 at the first two checks, then 1.4, 1.8, 2.1, … 2.8, and 8–9× the path
-/// tracer's relMSE when guiding was kept). Their threshold is high because the ratio also climbs on
-/// focal scenes where guiding wins by far: up to 1.03 on the lens focus and 1.53 on the glass caustic
-/// in the iterative-narrowing iterations (10 s, 62 guided runs of the ten focal scenes). They can also
-/// jump: on the glass caustic at 10 s one seed went 0.01, 0.01, 7.55, when the few caustic pixels that
-/// carried the path tracer's estimated error stopped differing from the pooled guided image.
-/// Each training iteration is 1/15 of half the budget by default, so every check later costs a non-focal
-/// scene another 3 % of the time it then renders unguided. The first check's threshold is lower: after
-/// one guided iteration the young guide's own noise, which its halves underestimate, still weighs in the
-/// comparison in guiding's favour (veach-mis 0.5–0.6 after one guided iteration, 1.2–1.6 after two;
-/// the Cornell box 1.2–1.6 and 1.9–2.2). The focal scenes stayed below 0.1 at both checks (20 s,
-/// seeds 0–2, both guides; veach-bidir and the door gap were the highest). The guided iterations so far
-/// were rendered with young guides, so a ratio near 1 still favours guiding the rest.
-pub const FALLBACK_THRESHOLDS: [f64; 3] = [0.3, 1.0, 2.0];
+/// A time-budget render compares the guided iterations with the unguided first one ([`cross_check`])
+/// after every guided training iteration, but gives guiding up only from this check on (0-based): the
+/// first checks rest on a guide that has learned little and on images of two samples per pixel. On the
+/// glass caustic the guide found the caustic only in its eighth to tenth iteration in several seeds, and
+/// in a dim room an iteration that missed the light looks as quiet as the Cornell box; waiting costs a
+/// non-focal scene three guided iterations (a tenth of the default budget), whose images the fallback's
+/// combination keeps ([`fallback_weights`]).
+pub const FIRST_DECISIVE_CHECK: usize = 2;
 
-/// The thresholds where the guided vertices' pooled second-moment ratio ([`IterationStats::moments`],
-/// BSDF alone over the mixture) is below 1, i.e. where the guide adds local variance rather than
-/// finding what the BSDF misses: the second check gives up at 0.5 instead of 1. That ratio is an
-/// importance-sampled estimate, steady where nothing is focal: veach-mis at 30 s, seeds 20–23, gave
-/// 0.77–0.87 in every guided iteration while the image checks read 0.16–0.22, 0.63–0.75, then
-/// 1.16–1.26, …, so guiding was kept for four or five iterations before the 2.0 threshold gave it up.
-/// On the focal scenes the second check stayed at most 0.18 (10 s, seeds 0–2 and 40–42: veach-bidir
-/// 0.08–0.14 with the GMM guide and up to 0.18 with the octree, the door gap at most 0.08, the lens
-/// focus at most 0.05). Later checks keep 2.0:
-/// there the image check climbs on focal scenes (veach-bidir to 0.5) while their moment ratio
-/// wanders around 1.
-pub const FALLBACK_THRESHOLDS_WITHOUT_MOMENT_GAIN: [f64; 3] = [0.3, 0.5, 2.0];
+/// Guiding is given up at the first decisive check where its inefficiency (relative error × time) is
+/// more than this many times the path tracer's, or [`LATER_THRESHOLD`] at later checks: there the image
+/// check also climbs on focal scenes during iterative narrowing, where guiding still wins.
+pub const FIRST_THRESHOLD: f64 = 1.0;
+/// The threshold of the checks after the first decisive one.
+pub const LATER_THRESHOLD: f64 = 2.0;
+/// The first decisive check's threshold where the guided vertices' pooled second-moment ratio
+/// ([`IterationStats::moments`], BSDF alone over the mixture) is below 1, i.e. where the guide adds
+/// local variance rather than finding what the BSDF misses (veach-mis: 0.77–0.93 in every guided
+/// iteration).
+pub const FIRST_THRESHOLD_WITHOUT_MOMENT_GAIN: f64 = 0.5;
 
 /// Where the guided vertices' pooled second-moment ratio (BSDF alone over the mixture) is at least this,
 /// guiding is never given up: the guide finds light the BSDF finds rarely, and the image check is then
-/// at the mercy of whether the few samples behind it saw that light. On the glass caustic at 10 s, eight
-/// of twelve runs (seeds 70–72 and 80–82, both guides) gave up guiding at the first check (image ratio
-/// 1.6–3.4) for 0.12–2.5 relMSE, while without the fallback seeds 70–72 rendered 0.05–0.13; one of them
-/// had a ratio of 24 when it gave up (most had about 1: the guide had learned nothing yet, which this
-/// rule cannot tell from a scene with nothing to learn). Over the benchmark's recorded runs (more than
-/// 1,500), the non-focal scenes' per-iteration ratio stayed at most 1.37 (the Cornell box, 13 runs)
-/// and 0.93 (veach-mis, 34 runs), while the focal scenes' median was 0.7–6.4.
+/// at the mercy of whether the few samples behind it saw that light. The non-focal scenes' ratio stayed
+/// at most 1.37 (the Cornell box) and 0.93 (veach-mis); the glass caustic's jumps to 2–300 in the
+/// iterations after its guide found the caustic.
 pub const MOMENT_GAIN_TO_KEEP_GUIDING: f64 = 2.0;
 
 /// The threshold of the `check`-th fallback check (0-based) given the pooled second-moment ratio of the
-/// guided iterations so far (`None` without guided segments): [`FALLBACK_THRESHOLDS`], or
-/// [`FALLBACK_THRESHOLDS_WITHOUT_MOMENT_GAIN`] where the ratio is below 1, or infinity (never give up)
-/// where it is at least [`MOMENT_GAIN_TO_KEEP_GUIDING`].
+/// guided iterations so far (`None` without guided segments): infinity (no decision) before
+/// [`FIRST_DECISIVE_CHECK`] and where the ratio is at least [`MOMENT_GAIN_TO_KEEP_GUIDING`], else
+/// [`FIRST_THRESHOLD`] (or [`FIRST_THRESHOLD_WITHOUT_MOMENT_GAIN`]) at the first decisive check and
+/// [`LATER_THRESHOLD`] after it.
 pub fn fallback_threshold(check: usize, moment_ratio: Option<f64>) -> f64 {
-    let table = match moment_ratio {
-        Some(r) if r >= MOMENT_GAIN_TO_KEEP_GUIDING => return f64::INFINITY,
-        Some(r) if r < 1.0 => FALLBACK_THRESHOLDS_WITHOUT_MOMENT_GAIN,
-        _ => FALLBACK_THRESHOLDS,
-    };
-    table[check.min(table.len() - 1)]
+    match moment_ratio {
+        _ if check < FIRST_DECISIVE_CHECK => f64::INFINITY,
+        Some(r) if r >= MOMENT_GAIN_TO_KEEP_GUIDING => f64::INFINITY,
+        Some(r) if r < 1.0 && check == FIRST_DECISIVE_CHECK => FIRST_THRESHOLD_WITHOUT_MOMENT_GAIN,
+        _ if check == FIRST_DECISIVE_CHECK => FIRST_THRESHOLD,
+        _ => LATER_THRESHOLD,
+    }
+}
+
+/// Whether a check gives guiding up: its inefficiency ratio is finite and above `threshold`. A ratio that
+/// is not finite says the comparison had nothing to go on (no light in either image, or a path tracer's
+/// error estimated at zero): guiding goes on.
+pub fn gives_up(check: &CrossCheck, threshold: f64) -> bool {
+    check.inefficiency_ratio.is_finite() && check.inefficiency_ratio > threshold
 }
 
 /// The pooled ratio of [`IterationStats::moments`] over `iterations` (BSDF alone over the mixture), if
@@ -143,8 +136,10 @@ pub struct GuidedRenderSettings {
     /// every guided training iteration the guided images so far are compared with the unguided first
     /// iteration's ([`cross_check`]); if guiding's inefficiency is more than the check's threshold
     /// ([`fallback_threshold`]) times the path tracer's, training stops and the rest of the budget is
-    /// rendered unguided, without the guide's cost (the Cornell box and veach-mis). The output then
-    /// combines the unguided iterations by their sample counts.
+    /// rendered unguided, without the guide's cost (the Cornell box and veach-mis). No check before
+    /// [`FIRST_DECISIVE_CHECK`] gives guiding up, nor one that had nothing to compare ([`gives_up`]).
+    /// The output then combines the path tracer's iterations with the guided ones before the fallback
+    /// ([`fallback_weights`]).
     pub fallback: bool,
 }
 
@@ -176,6 +171,10 @@ pub struct IterationStats {
         serialize_with = "serialize_moment_ratio"
     )]
     pub moments: [f64; 2],
+    /// Training iterations: the effective number of contributing segments, (Σ c)² / Σ c² over the
+    /// recorded segments' contributions c (pixel-weighted): how many segments the training data rests
+    /// on. A handful where the light was found only by rare paths; many where it is easy to find.
+    pub effective_segments: f64,
     /// Wall time the guide spent taking this iteration's segments (between passes).
     pub record_s: f64,
     /// The guide update that followed (training iterations only).
@@ -209,6 +208,9 @@ pub struct GuidedOutput {
     /// The latest fallback check's decision (the one that gave up guiding, if any); `None` without a
     /// check.
     pub fallback: Option<Fallback>,
+    /// The images (two interleaved halves each) of the iterations that rendered, in order: what the
+    /// combination weighed, for studying other combinations.
+    pub iteration_images: Vec<IterationImage>,
 }
 
 /// The fallback decision of a render.
@@ -216,6 +218,8 @@ pub struct GuidedOutput {
 pub struct Fallback {
     /// The comparison it was made on.
     pub check: CrossCheck,
+    /// The check's threshold ([`fallback_threshold`]; infinite where it could not give guiding up).
+    pub threshold: f64,
     /// The render went on unguided (inefficiency ratio above the check's threshold,
     /// [`fallback_threshold`]).
     pub fell_back: bool,
@@ -232,6 +236,111 @@ pub fn sample_schedule(spp: u32, max_iterations: u32) -> (Vec<u32>, u32) {
         n *= 2;
     }
     (training, spp - used as u32)
+}
+
+/// The share of the guided training iterations, the latest ones, whose images the inverse-variance
+/// combination uses besides the final iteration's: by then the guide differs little from the final
+/// one. An earlier iteration's guide is worse, and its few samples per pixel hide how much worse (its
+/// rare bright paths are missing from both of its halves), so even the raised weights of
+/// [`robust_inverse_variance_weights`] would give it its share of the samples.
+pub const STABLE_TRAINING_SHARE: f64 = 1.0 / 3.0;
+
+/// Which of the `rendered` iterations (in render order) the inverse-variance combination uses: the
+/// final one and the last [`STABLE_TRAINING_SHARE`] of the guided training iterations (at least one).
+/// The unguided first iteration is used only when nothing was guided: its heavy-tailed noise (the rare
+/// path through a pinhole) is exactly what its two-halves variance estimate misses.
+pub fn combined_iterations(rendered: &[&IterationStats]) -> Vec<bool> {
+    let guided_training = rendered.iter().filter(|s| s.guided && s.training).count();
+    if !rendered.iter().any(|s| s.guided) {
+        return vec![true; rendered.len()];
+    }
+    let keep = ((guided_training as f64 * STABLE_TRAINING_SHARE).ceil() as usize).max(1);
+    let mut seen = 0;
+    rendered
+        .iter()
+        .map(|s| {
+            if !s.guided {
+                false
+            } else if !s.training {
+                true
+            } else {
+                seen += 1;
+                seen + keep > guided_training
+            }
+        })
+        .collect()
+}
+
+/// The combination weights of a render that gave guiding up (`images` and `rendered` in render order):
+/// the unguided iterations are one estimator (the path tracer), pooled by their samples and placed
+/// last, after the guided iterations that preceded the fallback; [`robust_inverse_variance_weights`]
+/// then weighs the guided ones by their variance, never above their share of the samples next to the
+/// path tracer (the more efficient estimator here, or guiding would not have been given up). Their images
+/// are unbiased: keeping them makes the checks before a fallback cost less than their time.
+pub fn fallback_weights(images: &[IterationImage], rendered: &[&IterationStats]) -> Vec<f64> {
+    let mut order: Vec<IterationImage> = Vec::new();
+    let mut cost: Vec<f64> = Vec::new();
+    for (image, _) in images.iter().zip(rendered).filter(|(_, s)| s.guided) {
+        order.push(image.clone());
+        cost.push(image.spp() as f64);
+    }
+    let unguided: Vec<(&IterationImage, &&IterationStats)> = images
+        .iter()
+        .zip(rendered)
+        .filter(|(_, s)| !s.guided)
+        .collect();
+    let unguided_spp: f64 = unguided.iter().map(|(i, _)| i.spp() as f64).sum();
+    if unguided_spp > 0.0 {
+        order.push(pooled_halves(unguided.iter().map(|(i, _)| *i)));
+        cost.push(unguided_spp);
+    }
+    let w = robust_inverse_variance_weights(&order, &cost);
+    let pool_weight = if unguided_spp > 0.0 {
+        w[w.len() - 1]
+    } else {
+        0.0
+    };
+    let mut guided_weights = w.into_iter();
+    images
+        .iter()
+        .zip(rendered)
+        .map(|(image, s)| {
+            if s.guided {
+                guided_weights.next().unwrap_or(0.0)
+            } else {
+                pool_weight * image.spp() as f64 / unguided_spp
+            }
+        })
+        .collect()
+}
+
+/// Several iterations of one estimator as one: each half is the sample-weighted mean of theirs.
+fn pooled_halves<'a>(its: impl Iterator<Item = &'a IterationImage>) -> IterationImage {
+    let its: Vec<&IterationImage> = its.collect();
+    let half = |pick: fn(&IterationImage) -> &(Image, u32)| -> (Image, u32) {
+        let n: u32 = its.iter().map(|i| pick(i).1).sum();
+        let mut out: Option<Image> = None;
+        for it in &its {
+            let (img, k) = pick(it);
+            if *k == 0 {
+                continue;
+            }
+            let w = *k as f64 / n as f64;
+            match &mut out {
+                None => {
+                    let mut i = img.clone();
+                    i.scale(w);
+                    out = Some(i);
+                }
+                Some(o) => o.add_scaled(img, w),
+            }
+        }
+        (out.unwrap_or_else(|| Image::new(0, 0)), n)
+    };
+    IterationImage {
+        a: half(|i| &i.a),
+        b: half(|i| &i.b),
+    }
 }
 
 /// Runs a guided render: training iterations that update `guide`, then the final render. With no guide
@@ -347,6 +456,7 @@ pub fn render_guided(
         let iter_start = Instant::now();
         let mut segments = 0u64;
         let mut moments = [0.0f64; 2];
+        let mut contribution_sums = [0.0f64; 2];
         let mut record_s = 0.0;
         let mut pass_spp = 1u32;
         while !runner.cancelled() {
@@ -378,6 +488,13 @@ pub fn render_guided(
             };
             if training {
                 segments += batch.len() as u64;
+                for seg in &batch {
+                    let c = seg.weight as f64 * seg.pixel_weight as f64;
+                    if c > 0.0 && c.is_finite() {
+                        contribution_sums[0] += c;
+                        contribution_sums[1] += c * c;
+                    }
+                }
                 if guided {
                     for seg in batch.iter().filter(|s| s.guide_fraction > 0.0) {
                         let mix = seg.second_moment_with_fraction(seg.guide_fraction);
@@ -430,6 +547,11 @@ pub fn render_guided(
             samples_per_s: (pixels * spp as u64) as f64 / render_s.max(1e-9),
             segments,
             moments,
+            effective_segments: if contribution_sums[1] > 0.0 {
+                contribution_sums[0] * contribution_sums[0] / contribution_sums[1]
+            } else {
+                0.0
+            },
             record_s,
             update: None,
             weight: 0.0,
@@ -456,7 +578,8 @@ pub fn render_guided(
                     let threshold = fallback_threshold(guided_images.len() - 1, moment_ratio);
                     fallback = Some(Fallback {
                         check: c,
-                        fell_back: c.inefficiency_ratio > threshold,
+                        threshold,
+                        fell_back: gives_up(&c, threshold),
                     });
                 }
             }
@@ -483,46 +606,24 @@ pub fn render_guided(
 
     let weights = match settings.combine {
         Combine::InverseVariance if fell_back(&fallback) => {
-            // The unguided iterations are one estimator: weight them by their samples. The guided ones
-            // before the check are left out: weighting them by the check's variance estimates, which
-            // are rough after one or two iterations, doubled veach-mis's error in one of six runs.
-            let used: Vec<&IterationStats> = stats.iter().filter(|s| s.spp > 0).collect();
-            let total: f64 = used
-                .iter()
-                .filter(|s| !s.guided)
-                .map(|s| s.spp as f64)
-                .sum();
-            used.iter()
-                .map(|s| if s.guided { 0.0 } else { s.spp as f64 / total })
-                .collect()
+            let rendered: Vec<&IterationStats> = stats.iter().filter(|s| s.spp > 0).collect();
+            fallback_weights(&images, &rendered)
         }
         Combine::InverseVariance => {
-            // An unguided iteration's heavy-tailed noise (the rare path through a pinhole) is exactly what
-            // its two-halves variance estimate misses, so it would get too much weight: once some
-            // iteration is guided, only guided iterations are combined.
-            let guided: Vec<bool> = stats
+            let rendered: Vec<&IterationStats> = stats.iter().filter(|s| s.spp > 0).collect();
+            let eligible = combined_iterations(&rendered);
+            // Sample counts as the cost (not seconds): the image must not depend on the machine's load.
+            let (its, cost): (Vec<IterationImage>, Vec<f64>) = images
                 .iter()
-                .filter(|s| s.spp > 0)
-                .map(|s| s.guided)
-                .collect();
-            let any_guided = guided.iter().any(|&g| g);
-            let eligible: Vec<IterationImage> = images
-                .iter()
-                .zip(&guided)
-                .filter(|(_, &g)| g || !any_guided)
-                .map(|(i, _)| i.clone())
-                .collect();
-            let w = inverse_variance_weights(&eligible);
+                .zip(&eligible)
+                .filter(|(_, &e)| e)
+                .map(|(i, _)| (i.clone(), i.spp() as f64))
+                .unzip();
+            let w = robust_inverse_variance_weights(&its, &cost);
             let mut it = w.into_iter();
-            guided
+            eligible
                 .iter()
-                .map(|&g| {
-                    if g || !any_guided {
-                        it.next().unwrap_or(0.0)
-                    } else {
-                        0.0
-                    }
-                })
+                .map(|&e| if e { it.next().unwrap_or(0.0) } else { 0.0 })
                 .collect()
         }
         Combine::Last => {
@@ -556,6 +657,7 @@ pub fn render_guided(
         },
         iterations: stats,
         fallback,
+        iteration_images: images,
     }
 }
 
@@ -564,19 +666,26 @@ mod tests {
     use super::*;
 
     #[test]
-    fn fallback_threshold_drops_at_the_second_check_without_moment_gain() {
-        assert_eq!(fallback_threshold(0, Some(0.5)), FALLBACK_THRESHOLDS[0]);
-        assert_eq!(fallback_threshold(1, Some(1.5)), FALLBACK_THRESHOLDS[1]);
-        assert_eq!(fallback_threshold(1, None), FALLBACK_THRESHOLDS[1]);
-        assert_eq!(fallback_threshold(1, Some(0.85)), 0.5);
-        const { assert!(FALLBACK_THRESHOLDS[1] > FALLBACK_THRESHOLDS_WITHOUT_MOMENT_GAIN[1]) };
-        assert_eq!(fallback_threshold(7, Some(0.85)), FALLBACK_THRESHOLDS[2]);
-        assert_eq!(fallback_threshold(7, Some(1.5)), FALLBACK_THRESHOLDS[2]);
+    fn the_first_checks_never_give_guiding_up() {
+        for check in 0..FIRST_DECISIVE_CHECK {
+            for ratio in [None, Some(0.5), Some(1.5)] {
+                assert_eq!(fallback_threshold(check, ratio), f64::INFINITY);
+            }
+        }
+        let k = FIRST_DECISIVE_CHECK;
+        assert_eq!(fallback_threshold(k, Some(1.5)), FIRST_THRESHOLD);
+        assert_eq!(fallback_threshold(k, None), FIRST_THRESHOLD);
+        assert_eq!(
+            fallback_threshold(k, Some(0.85)),
+            FIRST_THRESHOLD_WITHOUT_MOMENT_GAIN
+        );
+        assert_eq!(fallback_threshold(k + 1, Some(0.85)), LATER_THRESHOLD);
+        assert_eq!(fallback_threshold(k + 5, Some(1.5)), LATER_THRESHOLD);
     }
 
     #[test]
     fn fallback_never_gives_up_where_the_guide_has_a_strong_moment_gain() {
-        for check in [0, 1, 7] {
+        for check in [FIRST_DECISIVE_CHECK, FIRST_DECISIVE_CHECK + 1, 9] {
             assert_eq!(
                 fallback_threshold(check, Some(MOMENT_GAIN_TO_KEEP_GUIDING)),
                 f64::INFINITY
@@ -584,6 +693,49 @@ mod tests {
             assert_eq!(fallback_threshold(check, Some(24.0)), f64::INFINITY);
             assert!(fallback_threshold(check, Some(1.9)).is_finite());
         }
+    }
+
+    #[test]
+    fn the_combination_uses_the_final_and_the_last_third_of_the_guided_training() {
+        let it = |guided: bool, training: bool| IterationStats {
+            guided,
+            training,
+            ..iteration([0.0; 2])
+        };
+        let unguided = it(false, true);
+        let train = it(true, true);
+        let last = it(true, false);
+        let mut rendered = vec![&unguided];
+        rendered.extend(std::iter::repeat_n(&train, 7));
+        rendered.push(&last);
+        let used = combined_iterations(&rendered);
+        // ceil(7 / 3) = 3 training iterations, the latest, and the final one.
+        assert_eq!(
+            used,
+            [false, false, false, false, false, true, true, true, true]
+        );
+        // Without guided training (a loaded guide) only the final one; without guiding, everything.
+        assert_eq!(combined_iterations(&[&last]), [true]);
+        assert_eq!(combined_iterations(&[&unguided, &unguided]), [true, true]);
+    }
+
+    #[test]
+    fn a_comparison_with_nothing_to_go_on_does_not_give_guiding_up() {
+        // Both images black (no light found), or the path tracer's error estimated at zero: the ratio
+        // is not finite, which says nothing about which estimator is better.
+        let check = |ratio: f64| CrossCheck {
+            unguided_rel_error: 0.0,
+            unguided_s: 1.0,
+            guided_rel_error: 0.1,
+            guided_s: 1.0,
+            inefficiency_ratio: ratio,
+            unguided_pixel_share: 0.0,
+            guided_pixel_share: 0.0,
+        };
+        assert!(!gives_up(&check(f64::INFINITY), 1.0));
+        assert!(!gives_up(&check(f64::NAN), 1.0));
+        assert!(gives_up(&check(1.5), 1.0));
+        assert!(!gives_up(&check(1.5), f64::INFINITY));
     }
 
     fn iteration(moments: [f64; 2]) -> IterationStats {
@@ -596,6 +748,7 @@ mod tests {
             samples_per_s: 1.0,
             segments: 1,
             moments,
+            effective_segments: 0.0,
             record_s: 0.0,
             update: None,
             weight: 0.0,
@@ -610,5 +763,59 @@ mod tests {
         assert_eq!(pooled_moment_ratio(std::iter::empty()), None);
         let inf = [iteration([1.0, f64::INFINITY])];
         assert_eq!(pooled_moment_ratio(inf.iter()), None);
+    }
+
+    /// An iteration of `spp` samples in two halves of a 32x32 image of 0.5 with per-sample relative noise
+    /// `sigma`.
+    fn noisy_iteration(rng: &mut focal_testkit::TestRng, spp: u32, sigma: f64) -> IterationImage {
+        let half = |rng: &mut focal_testkit::TestRng| {
+            let mut img = Image::new(32, 32);
+            let s = sigma / ((spp / 2) as f64).sqrt();
+            for p in &mut img.rgb {
+                *p = [(0.5 * (1.0 + s * rng.next_normal())) as f32; 3];
+            }
+            img
+        };
+        IterationImage {
+            a: (half(rng), spp / 2),
+            b: (half(rng), spp / 2),
+        }
+    }
+
+    #[test]
+    fn after_a_fallback_the_guided_iterations_count_but_never_above_their_time_share() {
+        let mut rng = focal_testkit::TestRng::new(11);
+        let stat = |guided: bool, render_s: f64| IterationStats {
+            guided,
+            render_s,
+            ..iteration([0.0; 2])
+        };
+        // The unguided first iteration (1 s), three guided ones (1 s each, as efficient as the path
+        // tracer, or seemingly better), then the path tracer for the rest (7 s).
+        let images = vec![
+            noisy_iteration(&mut rng, 8, 0.4),
+            noisy_iteration(&mut rng, 8, 0.2),
+            noisy_iteration(&mut rng, 8, 0.4),
+            noisy_iteration(&mut rng, 8, 4.0),
+            noisy_iteration(&mut rng, 56, 0.4),
+        ];
+        let stats = [
+            stat(false, 1.0),
+            stat(true, 1.0),
+            stat(true, 1.0),
+            stat(true, 1.0),
+            stat(false, 7.0),
+        ];
+        let rendered: Vec<&IterationStats> = stats.iter().collect();
+        let w = fallback_weights(&images, &rendered);
+        assert!((w.iter().sum::<f64>() - 1.0).abs() < 1e-12, "{w:?}");
+        // The quiet guided iteration is raised to the path tracer's inefficiency: its time share among the
+        // kept iterations (1 s of 10), not more.
+        assert!(w[1] <= 1.0 / 9.0 + 0.02, "{w:?}");
+        assert!((w[2] - w[1]).abs() < 0.03, "{w:?}");
+        // 100 times the variance: left out.
+        assert_eq!(w[3], 0.0);
+        // The path tracer's iterations share their weight by their samples.
+        assert!((w[4] / w[0] - 7.0).abs() < 1e-9, "{w:?}");
     }
 }

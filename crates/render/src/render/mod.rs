@@ -145,12 +145,15 @@ pub(crate) fn camera_sample(
     pixel: IVec2,
     width: u64,
     index: u32,
-) -> (Sampler, glam::Vec2, crate::ray::Ray) {
+) -> (Sampler, glam::Vec2, crate::ray::CameraRay) {
     let pixel_index = pixel.y as u64 * width + pixel.x as u64;
     let mut sampler = Sampler::new(settings.sampler, settings.seed, pixel_index, index);
     let film_pos = pixel.as_vec2() + sampler.next_2d();
     let aperture = sampler.next_2d();
-    let ray = camera.generate_ray(film_pos, aperture);
+    let mut ray = camera.generate_ray_differential(film_pos, aperture);
+    // Mitsuba 0.6 shrinks the pixel footprint with the sample density: 1/√spp of a pixel.
+    let amount = 1.0 / (settings.spp.max(1) as f32).sqrt();
+    ray.differential = ray.differential.map(|d| d.scaled(&ray.ray, amount));
     (sampler, film_pos, ray)
 }
 
@@ -192,7 +195,7 @@ fn render_tile(
                 let (mut sampler, film_pos, ray) =
                     camera_sample(camera, settings, pixel, width, index);
                 let mut aovs = FirstHitAovs::default();
-                let l = integrator.li(scene, ray, &mut sampler, &mut aovs, &mut segments);
+                let l = integrator.li(scene, &ray, &mut sampler, &mut aovs, &mut segments);
                 let aov = AovSample {
                     albedo: aovs.albedo,
                     normal: aovs.normal,
