@@ -17,6 +17,7 @@ pub mod film;
 pub mod frame;
 pub mod geometry;
 pub mod guide;
+pub mod guide_file;
 pub mod integrator;
 pub mod load;
 pub mod mesh;

@@ -22,6 +22,11 @@ use std::sync::Arc;
 /// Deepest chain of nested `<include>`s accepted (Mitsuba 3's limit is 15, too).
 const MAX_INCLUDE_DEPTH: usize = 15;
 
+/// Deepest nesting of plugin elements accepted (a `<bsdf>` in a `<bsdf>` in a `<shape>` is 3 deep).
+/// Real scenes nest a handful of levels; the limit keeps the reader's and the scene builder's recursion
+/// far from the stack's end, so a pathological file is an error at its line rather than a crash.
+pub const MAX_NESTING_DEPTH: usize = 64;
+
 /// Parses a Mitsuba scene file into the neutral description. `params` are `-D name=value` overrides.
 pub fn parse_scene_file(path: &Path, params: &[(String, String)]) -> SceneResult<SceneDesc> {
     let text = std::fs::read_to_string(path)
@@ -269,6 +274,8 @@ struct Reader {
     search_paths: Vec<PathBuf>,
     /// Canonical paths of the files being read, outermost first.
     include_stack: Vec<PathBuf>,
+    /// Plugin elements open around the one being read (see [`MAX_NESTING_DEPTH`]).
+    depth: usize,
 }
 
 impl Reader {
@@ -292,6 +299,7 @@ impl Reader {
             ids: HashMap::new(),
             search_paths: Vec::new(),
             include_stack: Vec::new(),
+            depth: 0,
         }
     }
 
@@ -533,8 +541,17 @@ impl Reader {
             return Err(ctx.error(node, format!("empty 'id' in <{tag}>")));
         }
         let name = self.attr(node, "name", ctx)?.map(|n| to_snake_case(&n));
+        if self.depth >= MAX_NESTING_DEPTH {
+            return Err(ctx.error(
+                node,
+                format!("<{tag}> is nested more than {MAX_NESTING_DEPTH} plugins deep"),
+            ));
+        }
         let mut body = Body::default();
-        self.parse_children(node, ctx, &mut body, false)?;
+        self.depth += 1;
+        let children = self.parse_children(node, ctx, &mut body, false);
+        self.depth -= 1;
+        children?;
         if ctx.legacy {
             upgrade_legacy(&class, &plugin, &loc, &mut body)?;
         }

@@ -352,7 +352,9 @@ pub fn render_guided(
     progress: &(dyn Fn(Progress) + Sync),
 ) -> GuidedOutput {
     let start = Instant::now();
-    let halves = settings.combine == Combine::InverseVariance;
+    // A pretrained render is one iteration, which needs no variance estimate: one film keeps its image
+    // the plain ratio Σw·L / Σw, which shards of the render reproduce exactly when merged.
+    let halves = settings.combine == Combine::InverseVariance && !settings.pretrained;
     let pixels = spec.crop_size.x as u64 * spec.crop_size.y as u64;
     let max_pass_spp = (MAX_TRAINING_PASS_SAMPLES / pixels.max(1)).clamp(1, 32) as u32;
 
@@ -431,6 +433,10 @@ pub fn render_guided(
     for (index, plan) in plans.enumerate() {
         let index = index as u32;
         let training = index < training_iterations;
+        // Asked to stop: the iterations finished so far are combined as usual.
+        if settings.render.cancel.is_set() {
+            break;
+        }
         if training && (fell_back(&fallback) || index > 0 && is_past(&plan)) {
             continue;
         }
@@ -451,7 +457,7 @@ pub fn render_guided(
         let mut contribution_sums = [0.0f64; 2];
         let mut record_s = 0.0;
         let mut pass_spp = 1u32;
-        loop {
+        while !runner.cancelled() {
             let spp_left = max_total_spp.saturating_sub(total_spp + runner.spp_done());
             let count = match plan {
                 Plan::Spp(target) => pass_spp.min(target.saturating_sub(runner.spp_done())),
@@ -577,7 +583,8 @@ pub fn render_guided(
             }
         }
         // A render that has just given up guiding needs no more guide.
-        let update = match (&mut guide, training && !fell_back(&fallback)) {
+        let learn = training && !fell_back(&fallback) && !runner.cancelled();
+        let update = match (&mut guide, learn) {
             (Some(g), true) => {
                 let ctx = UpdateContext {
                     iteration: index,

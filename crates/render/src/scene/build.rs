@@ -80,6 +80,9 @@ pub struct BuildOptions {
     pub integrator_override: Option<String>,
     /// Unknown-plugin handling.
     pub strictness: Strictness,
+    /// Replace the film's size: width, and height (`None`: the film's aspect ratio). The camera is
+    /// built for the new size, and a crop window scales with the film.
+    pub film_size: Option<(u32, Option<u32>)>,
 }
 
 /// A scene with everything needed to render it.
@@ -173,7 +176,12 @@ pub fn build_scene(desc: &SceneDesc, opts: &BuildOptions) -> SceneResult<LoadedS
         .children_of(&ObjectClass::Film)
         .next()
         .map(|c| c.object.as_ref());
-    let film = film_from_desc(film_desc)?;
+    let mut film = film_from_desc(film_desc)?;
+    if let Some((w, h)) = opts.film_size {
+        film = film
+            .resized(w, h)
+            .map_err(|e| SceneError::in_file(&desc.path, e))?;
+    }
     let camera = camera_from_desc(sensor, glam::UVec2::new(film.width, film.height))?;
     let sampler = sampler_from_desc(
         sensor

@@ -27,6 +27,7 @@ pub fn settings(spp: u32, seed: u64, threads: usize) -> RenderSettings {
         threads,
         aovs: false,
         sampler: SamplerKind::Independent,
+        ..RenderSettings::default()
     }
 }
 
