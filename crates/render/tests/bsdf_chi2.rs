@@ -202,7 +202,7 @@ fn cases() -> Vec<Case> {
     let below = [dir(180.0, 0.0), dir(120.0, 40.0), dir(100.0, 300.0)];
     let ts = |front: Bsdf, back: Bsdf| {
         Bsdf::TwoSided(TwoSided {
-            sides: Box::new([front, back]),
+            sides: std::sync::Arc::new([front, back]),
         })
     };
     add(
@@ -564,7 +564,7 @@ fn sidedness() {
         assert!(b.sample(&ctx, below, 0.3, Vec2::new(0.4, 0.6)).is_none());
     }
     let ts = Bsdf::TwoSided(TwoSided {
-        sides: Box::new([diffuse(0.5), diffuse(0.5)]),
+        sides: std::sync::Arc::new([diffuse(0.5), diffuse(0.5)]),
     });
     assert!(ts.eval(&ctx, below, below2).x > 0.0);
     let d = rough_dielectric(MicrofacetKind::Ggx, 0.3, 0.3, true);

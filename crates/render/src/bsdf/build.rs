@@ -259,7 +259,7 @@ fn twosided(obj: &ObjectDesc, w: &mut Vec<String>) -> SceneResult<Bsdf> {
     };
     let front = sides.pop().expect("one side");
     Ok(Bsdf::TwoSided(TwoSided {
-        sides: Box::new([front, back]),
+        sides: std::sync::Arc::new([front, back]),
     }))
 }
 
