@@ -5,7 +5,7 @@
 
 mod common;
 
-use common::cbox;
+use common::{cbox, focal};
 use proptest::prelude::*;
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -20,19 +20,8 @@ fn fixtures() -> &'static PathBuf {
         std::fs::create_dir_all(&d).unwrap();
         let cb = cbox();
         let obscura = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenes/obscura.xml");
-        let run = |args: &[&str]| {
-            let out = Command::new(env!("CARGO_BIN_EXE_focal"))
-                .args(args)
-                .output()
-                .unwrap();
-            assert!(
-                out.status.success(),
-                "{}",
-                String::from_utf8_lossy(&out.stderr)
-            );
-        };
         let p = |name: &str| d.join(name).to_str().unwrap().to_string();
-        run(&[
+        focal(&[
             "render",
             cb.to_str().unwrap(),
             "-D",
@@ -43,7 +32,7 @@ fn fixtures() -> &'static PathBuf {
             "-o",
             &p("ref.exr"),
         ]);
-        run(&[
+        focal(&[
             "render",
             obscura.to_str().unwrap(),
             "-D",
