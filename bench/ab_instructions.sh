@@ -3,7 +3,7 @@
 # throughput benchmark's scenes, for each focal binary given: `bench/ab_instructions.sh BIN...`.
 # The counts include loading and writing the EXR, the same for every binary.
 set -euo pipefail
-R=${FOCAL_SHARED:-$(dirname "$0")/../../shared}/references/scenes
+R=$(dirname "$0")/../tests/data/references/scenes
 I=${INTERIOR:-$(dirname "$0")/../target/bench-interior/interior.xml}
 [ -f "$I" ] || python3 "$(dirname "$0")/make_interior.py" "$(dirname "$I")"
 scenes=("$R/cbox.xml -D res=128 --spp 8" "$R/caustic.xml -D res=128 --spp 8"

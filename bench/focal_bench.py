@@ -26,7 +26,6 @@ The score is the trimmed relMSE (epsilon 1e-2, the 0.1 % largest per-pixel error
 import argparse
 import json
 import math
-import os
 import shlex
 import statistics
 import subprocess
@@ -35,28 +34,28 @@ import time
 from pathlib import Path
 
 REPO = Path(__file__).resolve().parent.parent
-SHARED = Path(os.environ.get("FOCAL_SHARED", REPO.parent / "shared"))
+DATA = REPO / "tests" / "data"  # the vendored corpus and Mitsuba 3 references
 FOCAL = REPO / "target" / "release" / "focal"
 
 # name: (scene file, extra render arguments, Mitsuba 3 reference or None, focal?)
 SCENES = {
-    "caustic": (SHARED / "references/scenes/caustic.xml", [],
-                SHARED / "references/mitsuba3/caustic_llvm_256px_4096spp.exr", True),
-    "obscura": (SHARED / "references/scenes/obscura.xml", ["-D", "res=128"],
-                SHARED / "references/mitsuba3/obscura_llvm_128px_16384spp.exr", True),
-    "bidir": (SHARED / "corpus/veach-bidir/scene.xml",
+    "caustic": (DATA / "references/scenes/caustic.xml", [],
+                DATA / "references/mitsuba3/caustic_llvm_256px_4096spp.exr", True),
+    "obscura": (DATA / "references/scenes/obscura.xml", ["-D", "res=128"],
+                DATA / "references/mitsuba3/obscura_llvm_128px_16384spp.exr", True),
+    "bidir": (DATA / "corpus/veach-bidir/scene.xml",
               ["--integrator", "path", "-D", "resx=128", "-D", "resy=128"], None, True),
-    "torus": (SHARED / "corpus/torus-v3/scene.xml",
+    "torus": (DATA / "corpus/torus-v3/scene.xml",
               ["--integrator", "path", "-D", "resx=128", "-D", "resy=96"], None, True),
-    "ring": (SHARED / "corpus/sms-ring/ring.xml", ["--integrator", "path"], None, True),
+    "ring": (DATA / "corpus/sms-ring/ring.xml", ["--integrator", "path"], None, True),
     "ownobs": (REPO / "scenes/obscura.xml", [], None, True),
     "lens": (REPO / "scenes/lens_focus.xml", [], None, True),
     "shaded": (REPO / "scenes/shaded_lights.xml", [], None, True),
     "door": (REPO / "scenes/door_gap.xml", [], None, True),
     "glass": (REPO / "scenes/glass_caustic.xml", [], None, True),
-    "cbox": (SHARED / "references/scenes/cbox.xml", [],
-             SHARED / "references/mitsuba3/cbox_llvm_256px_1024spp.exr", False),
-    "mis": (SHARED / "corpus/veach-mis-mi3/integrator_direct_both.xml", ["--integrator", "path"],
+    "cbox": (DATA / "references/scenes/cbox.xml", [],
+             DATA / "references/mitsuba3/cbox_llvm_256px_1024spp.exr", False),
+    "mis": (DATA / "corpus/veach-mis-mi3/integrator_direct_both.xml", ["--integrator", "path"],
             None, False),
 }
 FOCAL_SCENES = [name for name, s in SCENES.items() if s[3]]

@@ -9,14 +9,14 @@ import mitsuba as mi
 
 mi.set_variant("scalar_rgb")
 REPO = Path(__file__).resolve().parent.parent
-SHARED = Path(os.environ.get("FOCAL_SHARED", REPO.parent / "shared"))
+DATA = REPO / "tests" / "data"  # the vendored reference scenes
 
 ap = argparse.ArgumentParser()
 ap.add_argument("a"), ap.add_argument("b")
 ap.add_argument("--threads", type=int, default=2)
 ap.add_argument("--extra", default="", help="extra render arguments")
 a = ap.parse_args()
-R = SHARED / "references/scenes"
+R = DATA / "references/scenes"
 scenes = [f"{R}/cbox.xml -D res=64 --spp 16", f"{R}/caustic.xml -D res=64 --spp 16",
           f"{R}/obscura.xml -D res=64 --spp 16",
           f"{REPO}/target/bench-interior/interior.xml -D resx=80 -D resy=45 --spp 8"]

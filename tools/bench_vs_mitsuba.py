@@ -27,11 +27,11 @@ import tempfile
 from pathlib import Path
 
 REPO = Path(__file__).resolve().parent.parent
-SHARED = Path(os.environ.get("FOCAL_SHARED", REPO.parent / "shared"))
+DATA = REPO / "tests" / "data"  # the vendored reference scenes
 
 
 def reference_set(interior_dir):
-    scenes = SHARED / "references" / "scenes"
+    scenes = DATA / "references" / "scenes"
     interior = Path(interior_dir) / "interior.xml"
     if not interior.exists():
         subprocess.run([sys.executable, str(REPO / "bench" / "make_interior.py"), str(interior_dir)], check=True)

@@ -11,8 +11,9 @@ use std::path::PathBuf;
 /// Arguments of `focal bench`.
 #[derive(Args, Debug)]
 pub struct BenchArgs {
-    /// The folder with `scenes/` and `mitsuba3/` (the project's shared reference data).
-    #[arg(long, default_value = "../shared/references")]
+    /// The folder with `scenes/` and `mitsuba3/` (the reference scenes and their Mitsuba 3 renders,
+    /// vendored in the repository; the default is relative to the repository's root).
+    #[arg(long, default_value = "tests/data/references")]
     pub references: PathBuf,
     /// Scenes (names in `scenes/` without .xml).
     #[arg(long, value_delimiter = ',', default_value = "cbox,caustic")]
@@ -26,11 +27,11 @@ pub struct BenchArgs {
     /// Runs per scene (the median is reported).
     #[arg(long, default_value_t = 3)]
     pub repeats: usize,
-    /// Worker threads (default: all cores).
+    /// Worker threads: 0 (the default) means one per core; at most 4 per core.
     #[arg(long, default_value_t = 0)]
     pub threads: usize,
-    /// Write the results as JSON here.
-    #[arg(long)]
+    /// Also write the results as JSON to PATH (`-`: standard output).
+    #[arg(long, value_name = "PATH")]
     pub json: Option<PathBuf>,
 }
 
@@ -49,6 +50,16 @@ pub fn run(a: BenchArgs) -> Result<()> {
     if a.repeats == 0 {
         bail!("--repeats must be at least 1");
     }
+    if a.spp == 0 || a.res == 0 || a.res > focal_render::film::MAX_FILM_SIDE {
+        bail!(
+            "--spp must be at least 1 and --res in 1..={}",
+            focal_render::film::MAX_FILM_SIDE
+        );
+    }
+    crate::input_checks::threads(a.threads)?;
+    if let Some(p) = &a.json {
+        crate::json_out::check(p)?;
+    }
     let mut rows = Vec::new();
     println!(
         "{:<10} {:>6} {:>14} {:>16} {:>8}",
@@ -66,6 +77,7 @@ pub fn run(a: BenchArgs) -> Result<()> {
             threads: a.threads,
             aovs: false,
             sampler: SamplerKind::Independent,
+            ..RenderSettings::default()
         };
         let mut rates: Vec<f64> = (0..a.repeats)
             .map(|_| {
@@ -127,7 +139,7 @@ pub fn run(a: BenchArgs) -> Result<()> {
         }));
     }
     if let Some(p) = &a.json {
-        std::fs::write(p, serde_json::to_string_pretty(&rows)? + "\n")?;
+        crate::json_out::write(p, &rows)?;
     }
     Ok(())
 }

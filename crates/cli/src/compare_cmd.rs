@@ -2,8 +2,12 @@
 //! and tabulates their errors against a reference: images, false-colour error images, metrics CSV/JSON,
 //! convergence curves (SVG) and an interactive, offline `index.html`.
 
+use crate::compare_checks::{
+    check_compare_args, reference_noise_warning, reference_rel_variance, CompareInputs,
+};
 use crate::convergence_plot::{write_loglog_svg, Curve};
 use crate::flip::{flip_picture, ldr_flip};
+use crate::interrupt;
 use crate::render_cmd::{self, GuidingArgs, RenderArgs};
 use crate::report_html::{write_report, Figure, ReportPage, ViewerImage};
 use anyhow::{bail, Context, Result};
@@ -43,13 +47,23 @@ pub struct CompareArgs {
     /// renders of focal scenes often are.
     #[arg(long, value_name = "EXR")]
     pub second_reference: Option<PathBuf>,
-    /// Output folder.
-    #[arg(long, default_value = "compare")]
+    /// Output folder (made if missing).
+    #[arg(
+        short = 'o',
+        long = "output",
+        visible_alias = "out",
+        value_name = "DIR",
+        default_value = "compare"
+    )]
     pub out: PathBuf,
     /// Scene parameter override, `name=value` (repeatable).
     #[arg(short = 'D', value_name = "NAME=VALUE")]
     pub defines: Vec<String>,
-    /// Worker threads.
+    /// Film size of the runs, `W` or `WxH` (with only W, the film's aspect ratio is kept); the
+    /// references must have it.
+    #[arg(long, value_name = "W[xH]")]
+    pub res: Option<String>,
+    /// Worker threads: 0 (the default) means one per core; at most 4 per core.
     #[arg(long, default_value_t = 0)]
     pub threads: usize,
     /// ε of relMSE.
@@ -118,25 +132,21 @@ struct Row {
 
 /// Runs `focal compare`.
 pub fn run(a: CompareArgs) -> Result<()> {
-    if a.time.is_none() && a.spp.is_none() {
-        bail!("give a budget: --time SECONDS (equal time) or --spp N (equal samples)");
-    }
-    let reference = Image::read_exr(&a.reference)
-        .with_context(|| format!("reading {}", a.reference.display()))?;
-    let second_reference = match &a.second_reference {
-        Some(p) => Some(Image::read_exr(p).with_context(|| format!("reading {}", p.display()))?),
-        None => None,
-    };
+    let CompareInputs {
+        methods,
+        reference,
+        second_reference,
+    } = check_compare_args(&a)?;
     std::fs::create_dir_all(&a.out).with_context(|| format!("creating {}", a.out.display()))?;
     // A reference rendered with one of the runs' seeds shares their first samples: its error would be
     // too small for the unguided methods. Two references of one seed share theirs, which the
     // two-reference estimate assumes they do not.
-    let seed_of = |p: &Path| {
+    let sidecar_of = |p: &Path| {
         std::fs::read_to_string(p.with_extension("json"))
             .ok()
             .and_then(|t| serde_json::from_str::<serde_json::Value>(&t).ok())
-            .and_then(|v| v["seed"].as_u64())
     };
+    let seed_of = |p: &Path| sidecar_of(p).and_then(|v| v["seed"].as_u64());
     let seeds: Vec<Option<u64>> = std::iter::once(&a.reference)
         .chain(&a.second_reference)
         .map(|p| seed_of(p))
@@ -156,17 +166,11 @@ pub fn run(a: CompareArgs) -> Result<()> {
             );
         }
     }
-    let methods: Vec<String> = a.methods.split(',').map(|m| m.trim().to_string()).collect();
     let mut rows = Vec::new();
-    if a.curve_points == 0 {
-        bail!("--curve-points must be at least 1");
-    }
     let curve_dir = a.out.join("curves");
     let mut curve = Vec::new();
-    for method in &methods {
-        if !matches!(method.as_str(), "pt" | "none" | "octree" | "gmm") {
-            bail!("unknown method '{method}' (pt, none, octree or gmm)");
-        }
+    // Ctrl-C stops the run under way; the finished runs are judged and reported as usual.
+    'runs: for method in &methods {
         for seed in 0..a.seeds {
             // Smaller budgets first: independent, complete runs (training included) whose output is what
             // the method returns when given that budget.
@@ -178,7 +182,11 @@ pub fn run(a: CompareArgs) -> Result<()> {
                 args.png = false;
                 args.spp = a.spp.map(|n| (n >> k).max(1));
                 args.time = a.time.map(|t| t / (1u64 << k) as f64);
-                render_cmd::run(args).with_context(|| format!("rendering with {method}"))?;
+                let rendered = render_cmd::run(args);
+                if interrupt::interrupted() {
+                    break 'runs;
+                }
+                rendered.with_context(|| format!("rendering with {method}"))?;
                 let j = judge(&output, &reference, second_reference.as_ref(), &a)?;
                 for ext in ["exr", "json"] {
                     let _ = std::fs::remove_file(output.with_extension(ext));
@@ -196,7 +204,15 @@ pub fn run(a: CompareArgs) -> Result<()> {
             let output = a.out.join(format!("{method}_s{seed}.exr"));
             let guide_image = seed == 0 && method != "pt" && method != "none";
             let args = run_args(&a, method, seed, &output, guide_image);
-            render_cmd::run(args).with_context(|| format!("rendering with {method}"))?;
+            let rendered = render_cmd::run(args);
+            if interrupt::interrupted() {
+                eprintln!(
+                    "interrupted: {} is not judged (it did not get its budget); the finished runs are",
+                    output.display()
+                );
+                break 'runs;
+            }
+            rendered.with_context(|| format!("rendering with {method}"))?;
             let Judgement {
                 image,
                 errors,
@@ -243,6 +259,16 @@ pub fn run(a: CompareArgs) -> Result<()> {
         }
     }
     let _ = std::fs::remove_dir(&curve_dir);
+    // The methods with a finished main run of seed 0 (all of them unless interrupted).
+    let methods: Vec<String> = methods
+        .into_iter()
+        .filter(|m| rows.iter().any(|r| &r.method == m && r.seed == 0))
+        .collect();
+    if methods.is_empty() {
+        bail!("interrupted before the first run finished: nothing to compare");
+    }
+    rows.retain(|r| methods.contains(&r.method));
+    curve.retain(|c| methods.contains(&c.method));
     let mut csv = String::from(
         "method,seed,spp,seconds,rel_mse,mse,mape,smape,ldr_flip,rel_mse_two_references\n",
     );
@@ -284,6 +310,18 @@ pub fn run(a: CompareArgs) -> Result<()> {
     }
     std::fs::write(a.out.join("convergence.csv"), ccsv)?;
     let summaries: Vec<Summary> = methods.iter().map(|m| summarise(m, &rows)).collect();
+    let lowest = summaries
+        .iter()
+        .min_by(|x, y| x.rel_mse_mean.total_cmp(&y.rel_mse_mean))
+        .map(|s| (s.method.as_str(), s.rel_mse_mean));
+    if let Some(w) = reference_noise_warning(
+        reference_rel_variance(&reference, a.epsilon),
+        sidecar_of(&a.reference).and_then(|v| v["spp"].as_u64()),
+        lowest,
+        summaries.iter().find(|s| s.method == "pt").map(|s| s.spp),
+    ) {
+        eprintln!("warning: {w}");
+    }
     std::fs::write(
         a.out.join("metrics.json"),
         serde_json::to_string_pretty(&serde_json::json!({
@@ -326,7 +364,8 @@ pub fn run(a: CompareArgs) -> Result<()> {
                 format!("{:.0}", s.spp),
                 format!("{:.2}", s.seconds),
                 format!("{:.4e}", s.rel_mse_mean),
-                format!("{:.2e}", s.rel_mse_std),
+                s.rel_mse_std
+                    .map_or("n/a (one seed)".to_string(), |v| format!("{v:.2e}")),
                 format!("{:.4e}", s.rel_mse_median),
                 format!("{:.4e}", s.mse),
                 format!("{:.4}", s.mape),
@@ -564,7 +603,8 @@ struct Summary {
     spp: f64,
     seconds: f64,
     rel_mse_mean: f64,
-    rel_mse_std: f64,
+    /// Standard deviation over seeds; `None` with one seed (one run gives no spread).
+    rel_mse_std: Option<f64>,
     rel_mse_median: f64,
     mse: f64,
     mape: f64,
@@ -581,11 +621,8 @@ fn summarise(method: &str, rows: &[Row]) -> Summary {
     let mut rel: Vec<f64> = rs.iter().map(|r| r.errors.rel_mse).collect();
     rel.sort_by(f64::total_cmp);
     let m = mean(&|r| r.errors.rel_mse);
-    let var = if rs.len() > 1 {
-        rel.iter().map(|v| (v - m) * (v - m)).sum::<f64>() / (n - 1.0)
-    } else {
-        0.0
-    };
+    let std = (rs.len() > 1)
+        .then(|| (rel.iter().map(|v| (v - m) * (v - m)).sum::<f64>() / (n - 1.0)).sqrt());
     let median = match rel.len() {
         0 => 0.0,
         l if l % 2 == 1 => rel[l / 2],
@@ -597,7 +634,7 @@ fn summarise(method: &str, rows: &[Row]) -> Summary {
         spp: mean(&|r| r.spp as f64),
         seconds: mean(&|r| r.seconds),
         rel_mse_mean: m,
-        rel_mse_std: var.sqrt(),
+        rel_mse_std: std,
         rel_mse_median: median,
         mse: mean(&|r| r.errors.mse),
         mape: mean(&|r| r.errors.mape),
@@ -627,6 +664,8 @@ fn run_args(
         threads: a.threads,
         seed,
         defines: a.defines.clone(),
+        res: a.res.clone(),
+        shard: None,
         png: true,
         exposure: a.exposure,
         aovs: false,
@@ -649,6 +688,7 @@ fn run_args(
             gmm_params: Vec::new(),
             save_guide: None,
             load_guide: None,
+            force_guide: false,
             guide_image,
             save_iterations: None,
         },

@@ -1,11 +1,13 @@
 //! `focal fireflies`: which samples of a render with a trained guide carry its error, and what their
 //! paths did (see `focal_render::render::fireflies`).
 
-use crate::render_cmd::{guided_spec, parse_defines, parse_sampler, GuidingArgs};
+use crate::guiding_args::{guided_spec, load_guide_for};
+use crate::input_checks;
+use crate::json_out;
+use crate::render_cmd::{parse_defines, parse_res, parse_sampler, GuidingArgs};
 use anyhow::{bail, Context, Result};
 use clap::Args;
 use focal_render::film::Image;
-use focal_render::guide::load_guide;
 use focal_render::integrator::path_trace::{LightEvent, PathTrace, Strategy};
 use focal_render::integrator::GuidedPathIntegrator;
 use focal_render::load::load_scene;
@@ -35,47 +37,91 @@ pub struct FirefliesArgs {
     /// ε of relMSE.
     #[arg(long, default_value_t = focal_render::metrics::DEFAULT_REL_EPSILON)]
     pub epsilon: f64,
-    /// Also write the report, with every listed sample's whole path, as JSON to this file.
+    /// Also write the report, with every listed sample's whole path, as JSON to PATH (`-`: standard
+    /// output).
     #[arg(long, value_name = "PATH")]
     pub json: Option<PathBuf>,
-    /// Worker threads (default: all cores).
+    /// Worker threads: 0 (the default) means one per core; at most 4 per core.
     #[arg(long, default_value_t = 0)]
     pub threads: usize,
     /// Scene parameter override, `name=value` (repeatable).
     #[arg(short = 'D', value_name = "NAME=VALUE")]
     pub defines: Vec<String>,
+    /// Film size, `W` or `WxH` (with only W, the film's aspect ratio is kept).
+    #[arg(long, value_name = "W[xH]")]
+    pub res: Option<String>,
     /// Replace the scene's integrator (e.g. `path`).
     #[arg(long)]
     pub integrator: Option<String>,
     /// Sample generator (independent or sobol; default: the scene's).
     #[arg(long)]
     pub sampler: Option<String>,
-    /// The guide (`--load-guide`, required) and the guided integrator's options.
-    #[command(flatten)]
-    pub guiding: GuidingArgs,
+    /// The trained guide (from `focal render --save-guide`); its method comes from the file.
+    #[arg(long, value_name = "PATH")]
+    pub load_guide: PathBuf,
+    /// Use the guide even if it was trained on another scene.
+    #[arg(long)]
+    pub force_guide: bool,
+    /// Probability of sampling the guide instead of the BSDF at every guided vertex (as `render`).
+    #[arg(long)]
+    pub guide_fraction: Option<f32>,
+    /// Russian roulette: albedo (default), throughput or off (as `render`).
+    #[arg(long)]
+    pub rr: Option<String>,
+    /// Do not split guided paths (as `render --no-split`).
+    #[arg(long)]
+    pub no_split: bool,
+}
+
+/// The guided options of `render` that `fireflies` takes.
+fn guiding_args(a: &FirefliesArgs) -> GuidingArgs {
+    GuidingArgs {
+        guiding: None,
+        iterations: None,
+        train_fraction: None,
+        combine: "variance".to_string(),
+        guide_fraction: a.guide_fraction,
+        rr: a.rr.clone(),
+        no_escaped: false,
+        no_split: a.no_split,
+        no_fallback: false,
+        octree_threshold: None,
+        gmm_k_max: None,
+        gmm_params: Vec::new(),
+        save_guide: None,
+        load_guide: Some(a.load_guide.clone()),
+        force_guide: a.force_guide,
+        guide_image: false,
+        save_iterations: None,
+    }
 }
 
 /// Runs `focal fireflies`.
 pub fn run(a: FirefliesArgs) -> Result<()> {
-    let Some(guide_path) = &a.guiding.load_guide else {
-        bail!("give the trained guide with --load-guide (from `focal render --save-guide`)");
-    };
     if a.spp == 0 {
         bail!("--spp must be at least 1");
+    }
+    input_checks::threads(a.threads)?;
+    if let Some(p) = &a.json {
+        json_out::check(p)?;
     }
     let params = parse_defines(&a.defines)?;
     let opts = BuildOptions {
         integrator_override: a.integrator.clone(),
         strictness: Strictness::Strict,
+        film_size: a.res.as_deref().map(parse_res).transpose()?,
     };
     let loaded = load_scene(&a.scene, &params, &opts)?;
-    let Some(spec) = guided_spec(&loaded.integrator, &a.guiding)? else {
-        bail!("the scene's integrator is not guided: give --guiding METHOD");
-    };
-    let bytes =
-        std::fs::read(guide_path).with_context(|| format!("reading {}", guide_path.display()))?;
-    let guide = load_guide(&bytes, &spec.params)
-        .map_err(|e| anyhow::anyhow!("{}: {e}", guide_path.display()))?;
+    let guide = load_guide_for(&a.load_guide, &loaded.scene, &a.scene, a.force_guide)?;
+    let spec = guided_spec(
+        &loaded.integrator,
+        &guiding_args(&a),
+        Some((&a.load_guide, guide.method)),
+    )?
+    .context("a loaded guide makes a guided render")?;
+    let guide = guide
+        .guide(&spec.params)
+        .map_err(|e| anyhow::anyhow!("{}: {e}", a.load_guide.display()))?;
     let reference = Image::read_exr(&a.reference)
         .with_context(|| format!("reading {}", a.reference.display()))?;
     let settings = RenderSettings {
@@ -88,6 +134,7 @@ pub fn run(a: FirefliesArgs) -> Result<()> {
             Some(s) => parse_sampler(s)?,
             None => loaded.sampler.kind,
         },
+        ..RenderSettings::default()
     };
     let integrator = GuidedPathIntegrator {
         settings: spec.settings,
@@ -135,8 +182,7 @@ pub fn run(a: FirefliesArgs) -> Result<()> {
         println!("  {n:>4}  {what}");
     }
     if let Some(p) = &a.json {
-        std::fs::write(p, serde_json::to_string_pretty(&report)? + "\n")
-            .with_context(|| format!("writing {}", p.display()))?;
+        json_out::write(p, &report)?;
     }
     Ok(())
 }

@@ -1,15 +1,22 @@
 //! `focal`: render Mitsuba scenes, benchmark the path tracer. Thin: all the work is in `focal-render`.
 
 mod bench;
+mod compare_checks;
 mod compare_cmd;
 mod convergence_plot;
 mod fireflies_cmd;
 mod flip;
+mod guiding_args;
+mod input_checks;
+mod interrupt;
+mod json_out;
 mod merge_cmd;
 mod metrics_cmd;
 mod reference_cmd;
 mod render_cmd;
+mod render_output;
 mod report_html;
+mod shard;
 
 use clap::{Parser, Subcommand};
 use std::process::ExitCode;
@@ -51,11 +58,15 @@ fn main() -> ExitCode {
         Command::Merge(a) => merge_cmd::run(a),
         Command::Fireflies(a) => fireflies_cmd::run(a),
     };
+    if let Err(e) = &result {
+        eprintln!("error: {e:#}");
+    }
+    // Ctrl-C stopped the work (what was done is written): the shell's code for SIGINT.
+    if interrupt::interrupted() {
+        return ExitCode::from(interrupt::EXIT_INTERRUPTED);
+    }
     match result {
         Ok(()) => ExitCode::SUCCESS,
-        Err(e) => {
-            eprintln!("error: {e:#}");
-            ExitCode::FAILURE
-        }
+        Err(_) => ExitCode::FAILURE,
     }
 }

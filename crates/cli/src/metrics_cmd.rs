@@ -1,6 +1,7 @@
 //! `focal metrics`: error metrics between two images (relMSE, MSE, MAPE, SMAPE and LDR-FLIP).
 
 use crate::flip::ldr_flip;
+use crate::json_out;
 use anyhow::{Context, Result};
 use clap::Args;
 use focal_render::agreement::{agreement, VARIANCE_LAYER};
@@ -32,13 +33,16 @@ pub struct MetricsArgs {
     /// (mean of (x − a)(x − b)/(m² + ε), m = (a + b)/2; the same outliers dropped).
     #[arg(long, value_name = "EXR")]
     pub second_reference: Option<PathBuf>,
-    /// Print JSON instead of a table.
-    #[arg(long)]
-    pub json: bool,
+    /// Write the metrics as JSON to PATH instead of a table (`-`, or no PATH: standard output).
+    #[arg(long, value_name = "PATH", num_args = 0..=1, default_missing_value = "-")]
+    pub json: Option<PathBuf>,
 }
 
 /// Runs `focal metrics`.
 pub fn run(a: MetricsArgs) -> Result<()> {
+    if let Some(p) = &a.json {
+        json_out::check(p)?;
+    }
     let read = |p: &PathBuf| Image::read_exr(p).with_context(|| format!("reading {}", p.display()));
     let image = read(&a.image)?;
     let reference = read(&a.reference)?;
@@ -58,7 +62,7 @@ pub fn run(a: MetricsArgs) -> Result<()> {
         Some(_) => Some(agreement(&image, &reference).map_err(anyhow::Error::msg)?),
         None => None,
     };
-    let mut text = if a.json {
+    if let Some(p) = &a.json {
         let mut v = serde_json::to_value(e)?;
         v["ldr_flip"] = serde_json::json!(flip);
         v["flip_exposure"] = serde_json::json!(a.flip_exposure);
@@ -69,53 +73,52 @@ pub fn run(a: MetricsArgs) -> Result<()> {
         if let Some(g) = agree {
             v["agreement"] = serde_json::to_value(g)?;
         }
-        serde_json::to_string_pretty(&v)? + "\n"
-    } else {
-        format!(
-            "relMSE (eps {}) {:.6e}\nMSE               {:.6e}\nMAPE              {:.6e}\nSMAPE             {:.6e}\nLDR-FLIP (exp {}) {:.6e}\n",
-            e.epsilon, e.rel_mse, e.mse, e.mape, e.smape, a.flip_exposure, flip
-        )
-    };
-    if !a.json && e.outlier_fraction > 0.0 {
+        return json_out::write(p, &v);
+    }
+    let mut text = format!(
+        "relMSE (eps {}) {:.6e}\nMSE               {:.6e}\nMAPE              {:.6e}\nSMAPE             {:.6e}\nLDR-FLIP (exp {}) {:.6e}\n",
+        e.epsilon, e.rel_mse, e.mse, e.mape, e.smape, a.flip_exposure, flip
+    );
+    if e.outlier_fraction > 0.0 {
         text += &format!(
             "({}% largest per-pixel errors dropped)\n",
             e.outlier_fraction * 100.0
         );
     }
-    if !a.json {
-        text += &format!(
-            "relMSE, all pixels {:.6e} ({:.1}% of it in the {}% largest per-pixel errors)\n",
-            e.rel_mse_all,
-            e.rel_mse_top_share * 100.0,
-            FIREFLY_PIXEL_FRACTION * 100.0
+    text += &format!(
+        "relMSE, all pixels {:.6e} ({:.1}% of it in the {}% largest per-pixel errors)\n",
+        e.rel_mse_all,
+        e.rel_mse_top_share * 100.0,
+        FIREFLY_PIXEL_FRACTION * 100.0
+    );
+    if let Some(t) = truth {
+        text += &format!("relMSE against the truth, both references' noise removed {t:.6e}\n");
+    }
+    text +=
+        &format!(
+        "score: exposure-normalised relMSE {:.6e} (a black image: {:.6e}); image mean {:.4} of \
+         the {}'s, {:.4} with the brightest 0.1% of pixels left out{}\n",
+        judged.rel_mse,
+        judged.black_rel_mse,
+        judged.mean_ratio,
+        if second.is_some() { "truth" } else { "reference" },
+        judged.trimmed_mean_ratio,
+        if judged.failed { ": FAILED (off by more than 30%)" } else { "" }
+    );
+    if let Some(g) = agree {
+        text +=
+            &format!(
+            "agreement of the two references: mean ratio {:.4} ± {:.4} (z {:.2}); {} of {} blocks \
+             beyond 3 sigma (largest |z| {:.2}, mean z² {:.2}): {}\n",
+            g.mean_ratio,
+            g.mean_ratio_sigma,
+            g.image_z,
+            g.blocks_beyond_limit,
+            g.blocks,
+            g.max_block_z,
+            g.mean_block_z2,
+            if g.agree { "they agree" } else { "they DISAGREE" }
         );
-        if let Some(t) = truth {
-            text += &format!("relMSE against the truth, both references' noise removed {t:.6e}\n");
-        }
-        text += &format!(
-            "score: exposure-normalised relMSE {:.6e} (a black image: {:.6e}); image mean {:.4} of \
-             the {}'s, {:.4} with the brightest 0.1% of pixels left out{}\n",
-            judged.rel_mse,
-            judged.black_rel_mse,
-            judged.mean_ratio,
-            if second.is_some() { "truth" } else { "reference" },
-            judged.trimmed_mean_ratio,
-            if judged.failed { ": FAILED (off by more than 30%)" } else { "" }
-        );
-        if let Some(g) = agree {
-            text += &format!(
-                "agreement of the two references: mean ratio {:.4} ± {:.4} (z {:.2}); {} of {} blocks \
-                 beyond 3 sigma (largest |z| {:.2}, mean z² {:.2}): {}\n",
-                g.mean_ratio,
-                g.mean_ratio_sigma,
-                g.image_z,
-                g.blocks_beyond_limit,
-                g.blocks,
-                g.max_block_z,
-                g.mean_block_z2,
-                if g.agree { "they agree" } else { "they DISAGREE" }
-            );
-        }
     }
     // A closed pipe (`| head`) is the reader's choice, not an error worth a panic.
     let _ = std::io::stdout().lock().write_all(text.as_bytes());

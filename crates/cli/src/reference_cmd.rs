@@ -2,12 +2,15 @@
 //! the mean: unguided, or guided by a saved guide (`--load-guide`), so that a scene's truth can come from
 //! two independent references made by different methods.
 
-use crate::render_cmd::{parse_defines, parse_sampler};
+use crate::guiding_args::load_guide_for;
+use crate::input_checks;
+use crate::interrupt;
+use crate::render_cmd::{parse_defines, parse_res, parse_sampler};
 use anyhow::{bail, Context, Result};
 use clap::Args;
-use focal_render::guide::load_guide;
 use focal_render::integrator::{GuidedPathIntegrator, GuidedSettings, Integrator, PathIntegrator};
 use focal_render::load::load_scene;
+use focal_render::render::memory::plain_render_bytes;
 use focal_render::render::reference::{
     checkpoint_path, fnv1a64, render_reference, ReferenceOutcome, ReferenceSettings,
 };
@@ -30,7 +33,13 @@ pub struct ReferenceArgs {
     pub spp: u32,
     /// Output EXR (RGB plus a `variance` layer: per-pixel variance of the mean). The checkpoint is
     /// `OUT.checkpoint` beside it; run the same command again to resume.
-    #[arg(short, long, default_value = "reference.exr")]
+    #[arg(
+        short,
+        long,
+        visible_alias = "out",
+        value_name = "EXR",
+        default_value = "reference.exr"
+    )]
     pub output: PathBuf,
     /// Samples per pixel of each pass (the variance is estimated from the passes; at least two needed).
     #[arg(long, default_value_t = 16)]
@@ -46,12 +55,16 @@ pub struct ReferenceArgs {
     /// so the reference's noise is independent of the renders it judges (a shared seed shares samples).
     #[arg(long, default_value_t = REFERENCE_SEED)]
     pub seed: u64,
-    /// Worker threads (the result does not depend on it).
+    /// Worker threads: 0 (the default) means one per core; at most 4 per core (the result does not
+    /// depend on it).
     #[arg(long, default_value_t = 0)]
     pub threads: usize,
     /// Scene parameter override, `name=value` (repeatable).
     #[arg(short = 'D', value_name = "NAME=VALUE")]
     pub defines: Vec<String>,
+    /// Film size, `W` or `WxH` (with only W, the film's aspect ratio is kept).
+    #[arg(long, value_name = "W[xH]")]
+    pub res: Option<String>,
     /// Override the sampler: independent or sobol.
     #[arg(long)]
     pub sampler: Option<String>,
@@ -64,6 +77,9 @@ pub struct ReferenceArgs {
     /// reference stays unbiased; the guide file is part of the checkpoint's key.
     #[arg(long, value_name = "GUIDE")]
     pub load_guide: Option<PathBuf>,
+    /// Use a --load-guide guide even if it was trained on another scene.
+    #[arg(long, requires = "load_guide")]
+    pub force_guide: bool,
     /// Also write a tonemapped PNG.
     #[arg(long)]
     pub png: bool,
@@ -80,9 +96,12 @@ pub fn run(a: ReferenceArgs) -> Result<()> {
     if !(a.checkpoint_every >= 0.0) || !a.checkpoint_every.is_finite() {
         bail!("--checkpoint-every must be a non-negative number of seconds");
     }
+    input_checks::threads(a.threads)?;
+    input_checks::output_file("-o", &a.output, "exr", "the reference")?;
     let params = parse_defines(&a.defines)?;
     let options = BuildOptions {
         integrator_override: a.integrator.clone(),
+        film_size: a.res.as_deref().map(parse_res).transpose()?,
         ..BuildOptions::default()
     };
     let loaded = load_scene(&a.scene, &params, &options)?;
@@ -104,7 +123,8 @@ pub fn run(a: ReferenceArgs) -> Result<()> {
     };
     let guide = match &a.load_guide {
         Some(p) => Some(
-            load_guide(&guide_bytes, &focal_render::guide::GuideParams::default())
+            load_guide_for(p, &loaded.scene, &a.scene, a.force_guide)?
+                .guide(&focal_render::guide::GuideParams::default())
                 .map_err(|e| anyhow::anyhow!("{}: {e}", p.display()))?,
         ),
         None => None,
@@ -124,7 +144,7 @@ pub fn run(a: ReferenceArgs) -> Result<()> {
     let scene_bytes =
         std::fs::read(&a.scene).with_context(|| format!("reading {}", a.scene.display()))?;
     let defines = format!("{params:?}");
-    let shape = match &guide {
+    let mut shape = match &guide {
         Some(_) => format!(
             "seed={} sampler={sampler:?} pass={} guided={guided_settings:?}",
             a.seed, a.pass_spp
@@ -134,6 +154,13 @@ pub fn run(a: ReferenceArgs) -> Result<()> {
             a.seed, a.pass_spp
         ),
     };
+    if let Some(res) = &a.res {
+        shape += &format!(" res={res}");
+    }
+    // Two films and the per-pixel sums of the passes and of their squares.
+    let (fw, fh) = (loaded.film.crop_size.x, loaded.film.crop_size.y);
+    let needed = 2 * plain_render_bytes(&loaded.film, false) + fw as u64 * fh as u64 * 48;
+    input_checks::memory(needed, &format!("a {fw}x{fh} reference"))?;
     let key = fnv1a64(&[
         &scene_bytes,
         defines.as_bytes(),
@@ -148,6 +175,8 @@ pub fn run(a: ReferenceArgs) -> Result<()> {
             threads: a.threads,
             aovs: false,
             sampler,
+            cancel: interrupt::install(),
+            ..RenderSettings::default()
         },
         pass_spp: a.pass_spp,
         checkpoint_interval: Duration::from_secs_f64(a.checkpoint_every),
@@ -185,8 +214,13 @@ pub fn run(a: ReferenceArgs) -> Result<()> {
     let (image, stats, resumed) = match outcome {
         ReferenceOutcome::Stopped { spp_done } => {
             eprintln!(
-                "stopped at {spp_done}/{} spp as asked; checkpoint {} (run the same command to resume)",
+                "stopped at {spp_done}/{} spp {}; checkpoint {} (run the same command to resume)",
                 a.spp,
+                if interrupt::interrupted() {
+                    "(interrupted)"
+                } else {
+                    "as asked"
+                },
                 checkpoint.display()
             );
             return Ok(());

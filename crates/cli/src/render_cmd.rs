@@ -1,27 +1,33 @@
 //! `focal render`.
 
+pub use crate::guiding_args::GuidingArgs;
+use crate::guiding_args::{guided_spec, load_guide_for, save_guide_for};
+use crate::input_checks;
+use crate::interrupt;
+use crate::render_output::{write_render, RenderRecord};
+use crate::shard::Shard;
 use anyhow::{bail, Context, Result};
 use clap::Args;
-use focal_render::guide::{load_guide, make_guide, GuideParams, GuidingMethod};
-use focal_render::integrator::{GuidedSettings, Roulette};
+use focal_render::guide::make_guide;
 use focal_render::load::{load_scene, make_integrator};
 use focal_render::render::combine::Combine;
 use focal_render::render::guide_view::{false_colour_log, guide_pdf_image, guide_structure_image};
 use focal_render::render::guided::{render_guided, GuidedRenderSettings, TrainingBudget};
+use focal_render::render::memory::{guided_render_bytes, plain_render_bytes};
 use focal_render::render::{render, RenderSettings};
 use focal_render::sampler::SamplerKind;
-use focal_render::scene::{BuildOptions, GuidedSpec, IntegratorSpec, Strictness};
+use focal_render::scene::{BuildOptions, Strictness};
 use indicatif::{ProgressBar, ProgressStyle};
 use std::path::PathBuf;
-use std::time::Duration;
 
 /// Arguments of `focal render`.
 #[derive(Args, Debug, Clone)]
 pub struct RenderArgs {
     /// The scene file (Mitsuba 0.6 or 3 XML).
     pub scene: PathBuf,
-    /// Output EXR path (default: the scene's name with .exr, in the current directory).
-    #[arg(short, long)]
+    /// Output EXR path (default: the scene's name with .exr, in the current directory). The JSON
+    /// sidecar and, with --png, the PNG are written beside it.
+    #[arg(short, long, visible_alias = "out", value_name = "EXR")]
     pub output: Option<PathBuf>,
     /// Samples per pixel (default: the scene's sampler sample_count). With --time: an upper bound.
     #[arg(long)]
@@ -29,7 +35,7 @@ pub struct RenderArgs {
     /// Time budget in seconds (renders whole passes until the budget is used).
     #[arg(long)]
     pub time: Option<f64>,
-    /// Worker threads (default: all cores).
+    /// Worker threads: 0 (the default) means one per core; at most 4 per core.
     #[arg(long, default_value_t = 0)]
     pub threads: usize,
     /// Random seed (the same seed and spp give a bit-identical image for any thread count).
@@ -38,6 +44,14 @@ pub struct RenderArgs {
     /// Scene parameter override, `name=value` (repeatable), as Mitsuba's -D.
     #[arg(short = 'D', value_name = "NAME=VALUE")]
     pub defines: Vec<String>,
+    /// Film size, `W` or `WxH`, for any scene (with only W, the film's aspect ratio is kept).
+    #[arg(long, value_name = "W[xH]")]
+    pub res: Option<String>,
+    /// Render shard I of N of one render (I counts from 0): the N shards draw disjoint samples, and
+    /// `focal merge` of all N gives the image of one render with N times --spp. Needs --spp, and for a
+    /// guided render a trained guide (--load-guide). See docs/sharding.md.
+    #[arg(long, value_name = "I/N")]
+    pub shard: Option<String>,
     /// Also write a tonemapped sRGB PNG beside the EXR.
     #[arg(long)]
     pub png: bool,
@@ -63,76 +77,6 @@ pub struct RenderArgs {
     pub guiding: GuidingArgs,
 }
 
-/// Options of guided renders (`--guiding`, or a scene whose integrator is `guided`/`focal_path`).
-#[derive(Args, Debug, Clone)]
-pub struct GuidingArgs {
-    /// Guided rendering with this guide: none, octree or gmm. Default: the scene's integrator decides.
-    #[arg(long, value_name = "METHOD")]
-    pub guiding: Option<String>,
-    /// Training iterations (time budget: their number, default 15 as Rath et al.; sample budget: the
-    /// most doubling iterations, default 16).
-    #[arg(long)]
-    pub iterations: Option<u32>,
-    /// Share of a --time budget spent training (default 0.5).
-    #[arg(long)]
-    pub train_fraction: Option<f64>,
-    /// How the iterations' images are combined: variance (inverse-variance weighting) or last (Rath).
-    #[arg(long, default_value = "variance")]
-    pub combine: String,
-    /// Probability of sampling the guide instead of the BSDF at every guided vertex, for either guide.
-    /// Without it the octree uses 0.5 (Rath et al.) and the GMM its own `--gmm guide_fraction=` (0.75)
-    /// while training and a fraction learned per region for the final render (between
-    /// `--gmm selection_min=` 0.4 and 0.75; `--gmm learn_selection=false` keeps 0.75).
-    #[arg(long)]
-    pub guide_fraction: Option<f32>,
-    /// Russian roulette of guided renders: albedo (default; survival by the product of BSDF albedos),
-    /// throughput (Mitsuba's, which undoes guiding's gains) or off (Rath et al.; set a max_depth).
-    #[arg(long)]
-    pub rr: Option<String>,
-    /// Do not train on segments that escaped the scene (Rath et al. drop them).
-    #[arg(long)]
-    pub no_escaped: bool,
-    /// Do not split guided paths whose throughput the sampling mixture inflated beyond the product of
-    /// the BSDF albedos (by default such paths are split in renders that do not train).
-    #[arg(long)]
-    pub no_split: bool,
-    /// Never give up guiding. By default a time-budget render compares, after every guided training
-    /// iteration, the guided images so far with the unguided first iteration's; from the third check on,
-    /// where guiding's relative error times its render time is more than the path tracer's (more than
-    /// half of it where the guided vertices' second-moment ratio shows no gain), or more than twice it
-    /// at a later check, it renders the rest of the budget unguided (the Cornell box, veach-mis).
-    /// Guiding is kept whatever the images say where that ratio is at least 2, and where the comparison
-    /// had nothing to go on.
-    #[arg(long)]
-    pub no_fallback: bool,
-    /// Octree relative split threshold (orth.threshold).
-    #[arg(long)]
-    pub octree_threshold: Option<f64>,
-    /// Most Gaussian components per mixture (converging and diverging each).
-    #[arg(long)]
-    pub gmm_k_max: Option<usize>,
-    /// A GMM guide parameter, `name=value` (repeatable; the fields of the guide's config by path, e.g.
-    /// `points.max=131072`, `em.iterations=2`, `schedule.decay=0.5`; the earlier flat names still work).
-    #[arg(long = "gmm", value_name = "NAME=VALUE")]
-    pub gmm_params: Vec<String>,
-    /// Write the trained guide to this file after training.
-    #[arg(long, value_name = "PATH")]
-    pub save_guide: Option<PathBuf>,
-    /// Use a guide trained earlier (--save-guide) and skip training.
-    #[arg(long, value_name = "PATH")]
-    pub load_guide: Option<PathBuf>,
-    /// Also write the guide's pdf seen from the camera (OUT.guide.exr and a false-colour OUT.guide.png)
-    /// and a picture of its structure, OUT.guide_structure.png: the Gaussian components' 2σ ellipsoids
-    /// projected over the render, or the octree leaves' density on a slice through the densest leaf.
-    #[arg(long)]
-    pub guide_image: bool,
-    /// Also write every iteration's image as its two interleaved halves, DIR/iteration_K_a.exr and
-    /// _b.exr (K as the sidecar's `iterations[].index`, which gives their spp, time and weight), for
-    /// studying how iterations combine.
-    #[arg(long, value_name = "DIR")]
-    pub save_iterations: Option<PathBuf>,
-}
-
 /// Parses `-D name=value` arguments.
 pub fn parse_defines(defines: &[String]) -> Result<Vec<(String, String)>> {
     defines
@@ -153,71 +97,66 @@ pub fn parse_sampler(s: &str) -> Result<SamplerKind> {
     }
 }
 
-/// The guided render a run asks for: `--guiding` on the command line, else a guided scene integrator;
-/// `None` for a plain render.
-pub(crate) fn guided_spec(scene: &IntegratorSpec, g: &GuidingArgs) -> Result<Option<GuidedSpec>> {
-    let mut spec = match (scene, &g.guiding) {
-        (IntegratorSpec::Guided(s), _) => (**s).clone(),
-        (IntegratorSpec::Path(p), Some(_)) => GuidedSpec {
-            method: GuidingMethod::Octree,
-            settings: GuidedSettings {
-                path: *p,
-                ..GuidedSettings::default()
-            },
-            budget_s: None,
-            iterations: None,
-            training_fraction: None,
-            params: GuideParams::default(),
-        },
-        (IntegratorSpec::Path(_), None) => {
-            if g.load_guide.is_some() || g.save_guide.is_some() {
-                bail!("--load-guide and --save-guide need a guided render (--guiding METHOD)");
-            }
-            return Ok(None);
+/// Parses `--res W` or `--res WxH` into the film size of [`BuildOptions::film_size`].
+pub fn parse_res(res: &str) -> Result<(u32, Option<u32>)> {
+    let side = |s: &str| -> Result<u32> {
+        let v: u32 = s
+            .trim()
+            .parse()
+            .with_context(|| format!("--res {res}: expected W or WxH in pixels"))?;
+        let max = focal_render::film::MAX_FILM_SIDE;
+        if v == 0 || v > max {
+            bail!("--res {res}: each side must be in 1..={max}");
         }
+        Ok(v)
     };
-    if let Some(m) = &g.guiding {
-        spec.method = GuidingMethod::parse(m).map_err(|e| anyhow::anyhow!(e))?;
+    match res.split_once(['x', 'X']) {
+        Some((w, h)) => Ok((side(w)?, Some(side(h)?))),
+        None => Ok((side(res)?, None)),
     }
-    if let Some(r) = &g.rr {
-        spec.settings.roulette = Roulette::parse(r).map_err(anyhow::Error::msg)?;
-    }
-    if g.no_escaped {
-        spec.settings.train_escaped = false;
-    }
-    if g.no_split {
-        spec.settings.split = false;
-    }
-    if let Some(f) = g.guide_fraction {
-        if !(0.0..1.0).contains(&f) {
-            bail!("--guide-fraction must lie in [0, 1), got {f}");
-        }
-        spec.settings.guide_fraction = f;
-        spec.settings.learned_selection = false;
-    }
-    if let Some(t) = g.octree_threshold {
-        spec.params.octree.threshold = t;
-    }
-    if let Some(k) = g.gmm_k_max {
-        let em = &mut spec.params.gmm.em;
-        em.k_max = k;
-        em.k_init = em.k_init.min(k);
-        em.k_min = em.k_min.min(k);
-    }
-    for p in &g.gmm_params {
-        spec.params.gmm = gmm_param(&spec.params.gmm, p).context("--gmm")?;
-    }
-    if let Some(f) = g.train_fraction {
-        if !(0.0..=1.0).contains(&f) {
-            bail!("--train-fraction must lie in [0, 1], got {f}");
-        }
-    }
-    Ok(Some(spec))
 }
 
 /// Runs `focal render`.
 pub fn run(a: RenderArgs) -> Result<()> {
+    // Everything the command line alone can get wrong is checked before the scene is even loaded.
     let params = parse_defines(&a.defines)?;
+    let film_size = a.res.as_deref().map(parse_res).transpose()?;
+    let shard = a.shard.as_deref().map(Shard::parse).transpose()?;
+    let time_limit = a
+        .time
+        .map(|t| input_checks::time_budget("--time", t))
+        .transpose()?;
+    input_checks::threads(a.threads)?;
+    if a.spp == Some(0) {
+        bail!("--spp must be at least 1");
+    }
+    let output = a.output.clone().unwrap_or_else(|| {
+        PathBuf::from(a.scene.file_stem().unwrap_or_default()).with_extension("exr")
+    });
+    input_checks::output_file("-o", &output, "exr", "the image")?;
+    if let Some(p) = &a.guiding.save_guide {
+        input_checks::output_any("--save-guide", p)?;
+    }
+    if let Some(dir) = &a.guiding.save_iterations {
+        input_checks::output_folder("--save-iterations", dir)?;
+    }
+    let sampler_override = a.sampler.as_deref().map(parse_sampler).transpose()?;
+    let combine = match a.guiding.combine.as_str() {
+        "variance" | "inverse-variance" => Combine::InverseVariance,
+        "last" => Combine::Last,
+        other => bail!("unknown --combine '{other}' (variance or last)"),
+    };
+    let first_sample = match (&shard, a.spp, a.time) {
+        (None, ..) => 0,
+        (Some(_), _, Some(_)) => {
+            bail!(
+                "--shard needs a sample budget (--spp), not --time: shards must know their samples"
+            )
+        }
+        (Some(_), None, None) => bail!("--shard needs --spp (the samples per pixel of each shard)"),
+        (Some(s), Some(spp), None) => s.first_sample(spp)?,
+    };
+
     let opts = BuildOptions {
         integrator_override: a.integrator.clone(),
         strictness: if a.lenient {
@@ -225,6 +164,7 @@ pub fn run(a: RenderArgs) -> Result<()> {
         } else {
             Strictness::Strict
         },
+        film_size,
     };
     let load_start = std::time::Instant::now();
     let loaded = load_scene(&a.scene, &params, &opts)?;
@@ -232,56 +172,63 @@ pub fn run(a: RenderArgs) -> Result<()> {
     for w in &loaded.warnings {
         eprintln!("warning: {w}");
     }
-    if let Some(t) = a.time {
-        if !(t > 0.0) {
-            bail!("--time must be positive");
+    let g = &a.guiding;
+    let mut pretrained = match &g.load_guide {
+        Some(p) => Some(load_guide_for(p, &loaded.scene, &a.scene, g.force_guide)?),
+        None => None,
+    };
+    let guided = guided_spec(
+        &loaded.integrator,
+        g,
+        pretrained
+            .as_ref()
+            .zip(g.load_guide.as_deref())
+            .map(|(l, p)| (p, l.method)),
+    )?;
+    if shard.is_some() && guided.is_some() && pretrained.is_none() {
+        bail!(
+            "--shard of a guided render needs a trained guide: train once with --save-guide, then \
+             render every shard with --load-guide (see docs/sharding.md)"
+        );
+    }
+    let scene_budget = guided.as_ref().and_then(|s| s.budget_s);
+    if a.time.is_none() {
+        if let Some(t) = scene_budget {
+            input_checks::time_budget("the scene's integrator budget", t)?;
         }
     }
-    let spp = match (a.spp, a.time) {
+    let spp = match (a.spp, a.time.or(scene_budget)) {
         (Some(s), _) => s,
         (None, Some(_)) => u32::MAX,
         (None, None) => loaded.sampler.spp,
     };
     if spp == 0 {
-        bail!("--spp must be at least 1");
+        bail!("the scene's sample_count must be at least 1");
     }
-    let sampler = match &a.sampler {
-        Some(s) => parse_sampler(s)?,
-        None => loaded.sampler.kind,
+    let needed = match &guided {
+        None => plain_render_bytes(&loaded.film, a.aovs),
+        Some(spec) => {
+            let iterations = g.iterations.or(spec.iterations).unwrap_or(16);
+            guided_render_bytes(&loaded.film, a.aovs, iterations)
+        }
     };
+    let (fw, fh) = (loaded.film.crop_size.x, loaded.film.crop_size.y);
+    input_checks::memory(needed, &format!("a {fw}x{fh} film"))?;
+
+    let cancel = interrupt::install();
     let settings = RenderSettings {
         spp,
-        time_limit: a.time.map(Duration::from_secs_f64),
+        time_limit,
         seed: a.seed,
         threads: a.threads,
         aovs: a.aovs,
-        sampler,
+        sampler: sampler_override.unwrap_or(loaded.sampler.kind),
+        cancel,
+        first_sample,
+        filter_weights: shard.is_some(),
     };
-    let output = a.output.clone().unwrap_or_else(|| {
-        PathBuf::from(a.scene.file_stem().unwrap_or_default()).with_extension("exr")
-    });
     let integrator = make_integrator(&loaded.integrator);
-
-    let bar = if a.quiet {
-        ProgressBar::hidden()
-    } else if a.time.is_some() {
-        let b = ProgressBar::new((a.time.unwrap() * 1000.0) as u64);
-        b.set_style(
-            ProgressStyle::with_template("{bar:40.cyan/blue} {elapsed_precise}/{msg} {prefix}")
-                .expect("valid template"),
-        );
-        b.set_message(format!("{:.1}s", a.time.unwrap()));
-        b
-    } else {
-        let b = ProgressBar::new(0);
-        b.set_style(
-            ProgressStyle::with_template(
-                "{bar:40.cyan/blue} {percent:>3}% {human_pos}/{human_len} samples  {elapsed_precise} ETA {eta_precise}  {prefix}",
-            )
-            .expect("valid template"),
-        );
-        b
-    };
+    let bar = progress_bar(&a);
     let progress = |p: focal_render::render::Progress| {
         if a.time.is_some() {
             bar.set_position(p.elapsed.as_millis() as u64);
@@ -292,10 +239,7 @@ pub fn run(a: RenderArgs) -> Result<()> {
         let rate = p.samples_done as f64 / p.elapsed.as_secs_f64().max(1e-9) / 1e6;
         bar.set_prefix(format!("{rate:.2} Msamples/s"));
     };
-    let guided = guided_spec(&loaded.integrator, &a.guiding)?;
-    let mut iterations_json = serde_json::Value::Null;
-    let mut guiding_json = serde_json::Value::Null;
-    let mut guide_caption: Option<String> = None;
+    let mut record = RenderRecord::default();
     let out = match guided {
         None => render(
             &loaded.scene,
@@ -306,20 +250,15 @@ pub fn run(a: RenderArgs) -> Result<()> {
             &progress,
         ),
         Some(spec) => {
-            let g = &a.guiding;
-            let mut guide = match &g.load_guide {
-                Some(p) => {
-                    let bytes =
-                        std::fs::read(p).with_context(|| format!("reading {}", p.display()))?;
-                    let guide = load_guide(&bytes, &spec.params)
-                        .map_err(|e| anyhow::anyhow!("{}: {e}", p.display()))?;
-                    Some(guide)
-                }
+            let mut guide = match pretrained.take().zip(g.load_guide.as_deref()) {
+                Some((file, path)) => Some(
+                    file.guide(&spec.params)
+                        .map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?,
+                ),
                 None => make_guide(spec.method, &loaded.scene.bounds, &spec.params)
                     .map_err(|e| anyhow::anyhow!(e))?,
             };
-            let time = a.time.or(spec.budget_s);
-            let budget = match time {
+            let budget = match a.time.or(spec.budget_s) {
                 Some(seconds) => TrainingBudget::Time {
                     seconds,
                     training_fraction: g.train_fraction.or(spec.training_fraction).unwrap_or(0.5),
@@ -330,11 +269,6 @@ pub fn run(a: RenderArgs) -> Result<()> {
                     spp,
                     max_iterations: g.iterations.or(spec.iterations).unwrap_or(16),
                 },
-            };
-            let combine = match g.combine.as_str() {
-                "variance" | "inverse-variance" => Combine::InverseVariance,
-                "last" => Combine::Last,
-                other => bail!("unknown --combine '{other}' (variance or last)"),
             };
             let gsettings = GuidedRenderSettings {
                 render: settings.clone(),
@@ -354,7 +288,9 @@ pub fn run(a: RenderArgs) -> Result<()> {
                 &gsettings,
                 &progress,
             );
-            if let (true, Some(guide)) = (g.guide_image, &guide) {
+            let interrupted = interrupt::interrupted();
+            let mut guide_caption = None;
+            if let (true, Some(guide), false) = (g.guide_image, &guide, interrupted) {
                 let pdf = guide_pdf_image(&loaded.camera, &loaded.film, guide.as_ref());
                 let exr = output.with_extension("guide.exr");
                 pdf.write_exr(&exr)
@@ -392,12 +328,20 @@ pub fn run(a: RenderArgs) -> Result<()> {
                     }
                 }
             }
+            // An interrupted training leaves a guide that was not updated with its last iteration's
+            // samples: it is not saved as if it were the trained guide.
             if let (Some(p), Some(guide)) = (&g.save_guide, &guide) {
-                std::fs::write(p, guide.save())
-                    .with_context(|| format!("writing {}", p.display()))?;
+                if interrupted && g.load_guide.is_none() {
+                    eprintln!(
+                        "warning: training was interrupted; the guide is not saved to {}",
+                        p.display()
+                    );
+                } else {
+                    save_guide_for(p, guide.as_ref(), spec.method, &loaded.scene, &a.scene)?;
+                }
             }
-            iterations_json = serde_json::to_value(&out.iterations)?;
-            guiding_json = serde_json::json!({
+            record.iterations = serde_json::to_value(&out.iterations)?;
+            record.guiding = serde_json::json!({
                 "method": spec.method.name(),
                 "settings": spec.settings,
                 "budget": budget,
@@ -414,122 +358,31 @@ pub fn run(a: RenderArgs) -> Result<()> {
         }
     };
     bar.finish_and_clear();
+    record.shard = shard.map(|s| s.record(first_sample));
+    record.load_seconds = load_seconds;
+    write_render(&a, &output, &loaded, &params, &settings, out, record)
+}
 
-    let mut image = out.image;
-    image.sanitize();
-    image
-        .write_exr(&output)
-        .with_context(|| format!("writing {}", output.display()))?;
-    let png = if a.png {
-        let p = output.with_extension("png");
-        image
-            .write_png(&p, a.exposure)
-            .with_context(|| format!("writing {}", p.display()))?;
-        Some(p)
-    } else {
-        None
-    };
-    let mean = image.mean_rgb();
-    let sidecar = serde_json::json!({
-        "focal_version": env!("CARGO_PKG_VERSION"),
-        "scene": a.scene.display().to_string(),
-        "output": output.display().to_string(),
-        "png": png.as_ref().map(|p| p.display().to_string()),
-        "width": loaded.film.crop_size.x,
-        "height": loaded.film.crop_size.y,
-        "integrator": loaded.integrator,
-        "sampler": format!("{:?}", sampler),
-        "seed": a.seed,
-        "defines": params,
-        "requested_spp": a.spp,
-        "time_budget_s": a.time,
-        "spp": out.stats.spp,
-        "load_s": load_seconds,
-        "render_s": out.stats.seconds,
-        "samples_per_s": out.stats.samples_per_second,
-        "passes": out.stats.passes,
-        "threads": out.stats.threads,
-        "rejected_samples": out.stats.rejected_samples,
-        "mean_rgb": mean,
-        "warnings": loaded.warnings,
-        "guiding": guiding_json,
-        "iterations": iterations_json,
-    });
-    let json_path = output.with_extension("json");
-    std::fs::write(&json_path, serde_json::to_string_pretty(&sidecar)? + "\n")
-        .with_context(|| format!("writing {}", json_path.display()))?;
-    eprintln!(
-        "{}: {} spp in {:.2} s ({:.2} Msamples/s), mean RGB [{:.5}, {:.5}, {:.5}]",
-        output.display(),
-        out.stats.spp,
-        out.stats.seconds,
-        out.stats.samples_per_second / 1e6,
-        mean[0],
-        mean[1],
-        mean[2]
+/// The progress bar of a render (hidden with --quiet).
+fn progress_bar(a: &RenderArgs) -> ProgressBar {
+    if a.quiet {
+        return ProgressBar::hidden();
+    }
+    if let Some(t) = a.time {
+        let b = ProgressBar::new((t * 1000.0) as u64);
+        b.set_style(
+            ProgressStyle::with_template("{bar:40.cyan/blue} {elapsed_precise}/{msg} {prefix}")
+                .expect("valid template"),
+        );
+        b.set_message(format!("{t:.1}s"));
+        return b;
+    }
+    let b = ProgressBar::new(0);
+    b.set_style(
+        ProgressStyle::with_template(
+            "{bar:40.cyan/blue} {percent:>3}% {human_pos}/{human_len} samples  {elapsed_precise} ETA {eta_precise}  {prefix}",
+        )
+        .expect("valid template"),
     );
-    Ok(())
-}
-
-/// `config` with the field named in `assignment` (`name=value`) set, through its serde form, so every
-/// field of a guide's config can be set from the command line without a flag each.
-fn with_param<T>(config: &T, assignment: &str) -> Result<T>
-where
-    T: serde::Serialize + serde::de::DeserializeOwned,
-{
-    let (name, value) = assignment
-        .split_once('=')
-        .with_context(|| format!("expected name=value, got `{assignment}`"))?;
-    let mut json = serde_json::to_value(config)?;
-    // A dotted name walks into nested groups (`em.iterations`).
-    let mut fields = json
-        .as_object_mut()
-        .context("the config is not a set of named fields")?;
-    let mut path = name.split('.').peekable();
-    let mut prefix = String::new();
-    let leaf = loop {
-        let part = path.next().unwrap_or_default();
-        if path.peek().is_none() {
-            break part;
-        }
-        let known: Vec<String> = fields.keys().map(|k| format!("{prefix}{k}")).collect();
-        fields = match fields.get_mut(part).and_then(|v| v.as_object_mut()) {
-            Some(group) => group,
-            None => bail!(
-                "unknown parameter group `{prefix}{part}` (known: {})",
-                known.join(", ")
-            ),
-        };
-        prefix = format!("{prefix}{part}.");
-    };
-    let Some(old) = fields.get(leaf) else {
-        let names: Vec<String> = fields.keys().map(|k| format!("{prefix}{k}")).collect();
-        bail!("unknown parameter `{name}` (known: {})", names.join(", "));
-    };
-    let parsed: serde_json::Value = serde_json::from_str(value)
-        .or_else(|_| serde_json::from_str(&format!("\"{value}\"")))
-        .with_context(|| format!("bad value `{value}` for `{name}`"))?;
-    // An optional value (null by default) takes a number or null.
-    if !old.is_null() && std::mem::discriminant(old) != std::mem::discriminant(&parsed) {
-        bail!("`{name}` takes a value like {old}, got `{value}`");
-    }
-    fields.insert(leaf.to_string(), parsed);
-    serde_json::from_value(json).with_context(|| format!("bad value `{value}` for `{name}`"))
-}
-
-/// A GMM guide parameter `name=value`: the config's field path (`em.iterations=2`), or an earlier
-/// flat name (`em_iterations=2`); a removed experiment's parameter is refused with the reason.
-fn gmm_param(
-    config: &focal_render::guiding::GmmConfig,
-    assignment: &str,
-) -> Result<focal_render::guiding::GmmConfig> {
-    use focal_render::guiding::GmmConfig;
-    let (name, value) = assignment
-        .split_once('=')
-        .with_context(|| format!("expected name=value, got `{assignment}`"))?;
-    if let Some(why) = GmmConfig::removed(name) {
-        bail!("{why}");
-    }
-    let name = GmmConfig::renamed(name).unwrap_or(name);
-    with_param(config, &format!("{name}={value}"))
+    b
 }

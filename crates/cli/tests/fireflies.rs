@@ -38,8 +38,6 @@ fn fireflies_are_ranked_complete_and_deterministic() {
             scene,
             "-D",
             "res=24",
-            "--guiding",
-            "gmm",
             "--load-guide",
             guide.to_str().unwrap(),
             "--reference",

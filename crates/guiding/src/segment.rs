@@ -3,8 +3,8 @@
 use glam::Vec3;
 use serde::{Deserialize, Serialize};
 
-/// One path segment recorded for training (the design notes' "training data", §3 of
-/// `focal-guiding-octree.md`): a segment leaving a non-delta vertex that hit a surface.
+/// One path segment recorded for training ("training data", `docs/design/octree.md` §3): a segment
+/// leaving a non-delta vertex that hit a surface.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct TrainingSegment {
     /// The vertex x_k the direction was sampled at.

@@ -1,4 +1,4 @@
-//! Tests of the focal-guiding octree against the properties in `focal-guiding-octree.md` §9.
+//! Tests of the focal-guiding octree against the properties in `docs/design/octree.md` §9.
 
 use std::f64::consts::PI;
 
@@ -662,7 +662,9 @@ fn save_load_round_trip_reproduces_the_model() {
         let u = [rng.f32(), rng.f32(), rng.f32()];
         assert_eq!(loaded.sample_at(x, None, u), guide.sample_at(x, None, u));
     }
-    assert!(FocalOctreeGuide::load(&bytes[..bytes.len() / 2], OctreeGuideConfig::default()).is_err());
+    assert!(
+        FocalOctreeGuide::load(&bytes[..bytes.len() / 2], OctreeGuideConfig::default()).is_err()
+    );
     assert!(FocalOctreeGuide::load(b"not a snapshot", OctreeGuideConfig::default()).is_err());
     let mut corrupt = bytes.clone();
     corrupt[8] ^= 0x7f; // the version

@@ -74,3 +74,49 @@ pub fn offset_ray_origin(p: Vec3, ng: Vec3, dir: Vec3) -> Vec3 {
         },
     )
 }
+
+/// The rays through the neighbouring film positions one pixel step to the right (`x`) and down (`y`) of
+/// a camera ray, already scaled to the render's sample density (Mitsuba 0.6's ray differentials,
+/// `scaleDifferential(1/√spp)`). They give the footprint of a pixel sample on the first surface hit,
+/// which MIP-mapped textures filter over.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct RayDifferential {
+    /// Origin of the ray one step along x.
+    pub rx_o: Vec3,
+    /// Direction of the ray one step along x (not necessarily unit length).
+    pub rx_d: Vec3,
+    /// Origin of the ray one step along y.
+    pub ry_o: Vec3,
+    /// Direction of the ray one step along y.
+    pub ry_d: Vec3,
+}
+
+impl RayDifferential {
+    /// Moves the offset rays towards the main ray by `amount` (Mitsuba's `scaleDifferential`).
+    pub fn scaled(&self, ray: &Ray, amount: f32) -> Self {
+        RayDifferential {
+            rx_o: ray.o + (self.rx_o - ray.o) * amount,
+            rx_d: ray.d + (self.rx_d - ray.d) * amount,
+            ry_o: ray.o + (self.ry_o - ray.o) * amount,
+            ry_d: ray.d + (self.ry_d - ray.d) * amount,
+        }
+    }
+}
+
+/// A primary ray with the differentials of its pixel footprint, if the camera provides them.
+#[derive(Clone, Copy, Debug)]
+pub struct CameraRay {
+    /// The ray.
+    pub ray: Ray,
+    /// Offset rays for texture filtering at the first hit.
+    pub differential: Option<RayDifferential>,
+}
+
+impl From<Ray> for CameraRay {
+    fn from(ray: Ray) -> Self {
+        CameraRay {
+            ray,
+            differential: None,
+        }
+    }
+}

@@ -1,19 +1,11 @@
-//! Locations of the shared test data (the Mitsuba scene corpus, the reference scenes and renders).
-//!
-//! The data lives outside the repository, in a `shared/` folder beside the checkout (CI clones the repo
-//! with `shared/` next to it; developer worktrees may sit deeper), so tests find it through this helper.
+//! Location of the test data vendored in the repository: the public Mitsuba scene corpus
+//! (`tests/data/corpus`, each scene with its licence and attribution) and the small reference scenes with
+//! their Mitsuba 3 renders (`tests/data/references`). See `tests/data/README.md`.
 
 use std::path::PathBuf;
 
-/// The shared data folder: `$FOCAL_SHARED` if set, else `<repo>/../shared`, else `/work/shared`.
-/// Returns the last candidate even when none exists, so that a test fails naming a concrete path.
-pub fn shared_dir() -> PathBuf {
-    if let Some(dir) = std::env::var_os("FOCAL_SHARED") {
-        return PathBuf::from(dir);
-    }
-    let beside_repo = PathBuf::from(concat!(env!("CARGO_MANIFEST_DIR"), "/../../../shared"));
-    if beside_repo.is_dir() {
-        return beside_repo;
-    }
-    PathBuf::from("/work/shared")
+/// The repository's `tests/data` folder, found from this crate's manifest, so that tests run from any
+/// clone without outside data.
+pub fn test_data_dir() -> PathBuf {
+    PathBuf::from(concat!(env!("CARGO_MANIFEST_DIR"), "/../../tests/data"))
 }

@@ -3,8 +3,8 @@
 //! Against one reference r, relMSE measures E[(x − r)²] = Var x + bias² + Var r per pixel: the
 //! reference's own noise adds the same amount to every method's error and pulls their ratios towards 1.
 //! Focal scenes make that floor high. A two-minute guided reference of a pinhole or a lens focus can
-//! hold as much error as a ten-second render (two such references of one scene differ by relMSE
-//! 0.17–4 in focal's benchmark), and Mitsuba 3's 16384 spp camera obscura is still noisy.
+//! hold as much error as a ten-second render (docs/experiments/2026-12-03-benchmark-references.md), and
+//! Mitsuba 3's 16384 spp camera obscura is still noisy.
 //!
 //! Given two references a and b, independent of the image x and of each other, and each unbiased,
 //!

@@ -3,8 +3,8 @@
 
 use focal_render::bsdf::{
     Blend, Bsdf, BsdfContext, Conductor, Dielectric, Diffuse, DiffuseTransmitter, Mask, Microfacet,
-    MicrofacetKind, NormalMap, Plastic, RoughConductor, RoughDielectric, RoughPlastic,
-    ThinDielectric, TwoSided,
+    MicrofacetKind, NormalMap, Phong, Plastic, RoughConductor, RoughDielectric, RoughPlastic,
+    ThinDielectric, TwoSided, Ward, WardVariant,
 };
 use focal_render::color::Rgb;
 use focal_render::texture::Texture;
@@ -202,7 +202,7 @@ fn cases() -> Vec<Case> {
     let below = [dir(180.0, 0.0), dir(120.0, 40.0), dir(100.0, 300.0)];
     let ts = |front: Bsdf, back: Bsdf| {
         Bsdf::TwoSided(TwoSided {
-            sides: Box::new([front, back]),
+            sides: std::sync::Arc::new([front, back]),
         })
     };
     add(
@@ -312,6 +312,36 @@ fn cases() -> Vec<Case> {
         &below,
         Energy::AtMostOne,
     );
+    for (n, spec) in [(30.0, 0.4), (3.0, 0.9)] {
+        add(
+            format!("phong n={n} s={spec}"),
+            &Bsdf::Phong(Box::new(Phong::new(
+                Texture::constant(n),
+                Texture::constant(spec),
+                Texture::constant(1.0 - spec),
+            ))),
+            &front,
+            Energy::AtMostOne,
+        );
+    }
+    for (variant, au, av) in [
+        (WardVariant::Balanced, 0.2, 0.2),
+        (WardVariant::Ward, 0.3, 0.1),
+        (WardVariant::WardDuer, 0.15, 0.4),
+    ] {
+        add(
+            format!("ward {variant:?} {au} {av}"),
+            &Bsdf::Ward(Box::new(Ward::new(
+                variant,
+                au,
+                av,
+                Texture::constant(0.3),
+                Texture::constant(0.3),
+            ))),
+            &front,
+            Energy::AtMostOne,
+        );
+    }
     add(
         "difftrans".into(),
         &Bsdf::DiffuseTransmitter(DiffuseTransmitter {
@@ -434,6 +464,11 @@ fn chi2_plastics_and_twosided() {
 }
 
 #[test]
+fn chi2_phong_and_ward() {
+    check_cases(&["phong", "ward"]);
+}
+
+#[test]
 fn chi2_mask_and_difftrans() {
     check_cases(&["mask", "difftrans"]);
 }
@@ -529,7 +564,7 @@ fn sidedness() {
         assert!(b.sample(&ctx, below, 0.3, Vec2::new(0.4, 0.6)).is_none());
     }
     let ts = Bsdf::TwoSided(TwoSided {
-        sides: Box::new([diffuse(0.5), diffuse(0.5)]),
+        sides: std::sync::Arc::new([diffuse(0.5), diffuse(0.5)]),
     });
     assert!(ts.eval(&ctx, below, below2).x > 0.0);
     let d = rough_dielectric(MicrofacetKind::Ggx, 0.3, 0.3, true);

@@ -3,13 +3,15 @@
 //! never panic, and every failure must be an error that says where (file, and line where there is one).
 //!
 //! The default run is short (a few hundred cases in all). The long, benchmark-style run is
-//! `tools/fuzz-readers.sh` (sets `FOCAL_FUZZ_CASES`, release mode); see the README.
+//! `tools/fuzz-readers.sh` (sets `FOCAL_FUZZ_CASES`, release mode; its run time:
+//! `docs/experiments/2026-12-01-reader-fuzzing.md`).
 
 use focal_render::desc::xml::parse_scene_str;
 use focal_render::error::SourceLoc;
 use focal_render::mesh::serialized::{parse_serialized, write_serialized};
 use focal_render::mesh::{load_obj, load_ply, load_serialized, MeshData};
 use focal_render::scene::{build_scene, BuildOptions, Strictness};
+use focal_render::texture::{Bitmap, BitmapFilter, UvFootprint, UvTransform, WrapMode};
 use glam::{Vec2, Vec3};
 use proptest::prelude::*;
 use std::path::{Path, PathBuf};
@@ -46,6 +48,36 @@ const XML: &str = r#"<scene version="0.6.0">
 </scene>
 "#;
 
+/// Mitsuba 0.6 syntax of the paths added for real 0.6 scenes (issue 41): MIP-mapped bitmaps and their
+/// parameters, Mitsuba 0.6's leniencies, and the plugins added with the plugin table.
+const XML06: &str = r#"<scene version="0.6.0">
+  <integrator type="path_sms_ss"><integer name="maxDepth" value="4"/></integrator>
+  <sensor type="perspective"><float name="fov" value="40"/>
+    <transform name="toWorld"><lookAt origin="0, 1, 5" target="0, 0, 0" up="0, 1, 0"/></transform>
+    <sampler type="stratified"><integer name="sampleCount" value="4"/></sampler>
+    <film type="tiledhdrfilm"><integer name="width" value="8"/><integer name="height" value="6"/>
+      <string name="pixelFormat" value="rgba"/><rfilter type="gaussian"/></film></sensor>
+  <texture type="bitmap" id="tex"><string name="filename" value="image.png"/>
+    <string name="filterType" value="trilinear"/><float name="maxAnisotropy" value="4"/>
+    <string name="wrapModeU" value="mirror"/><string name="wrapModeV" value="zero"/>
+    <float name="gamma" value="2.2"/><string name="channel" value="g"/><boolean name="cache" value="false"/>
+    <float name="uscale" value="3"/><float name="voffset" value="0.25"/></texture>
+  <shape type="rectangle"><bsdf type="phong"><float name="exponent" value="20"/>
+    <ref name="diffuseReflectance" id="tex"/></bsdf></shape>
+  <shape type="sphere"><bsdf type="roughconductor"><rgb name="eta" value="-0.05, 4.1, 4.7"/>
+    <rgb name="k" value="-1, 2, 3"/><float name="alphaU" value="0.2"/>
+    <string name="distribution" value="as"/></bsdf></shape>
+  <shape type="sphere"><point name="center" x="2" y="0" z="0"/><bsdf type="conductor">
+    <string name="material" value="None"/></bsdf></shape>
+  <shape type="disk"><bsdf type="ward"><string name="variant" value="ward-duer"/>
+    <float name="alphaU" value="0.1"/><float name="alphaV" value="0.3"/></bsdf></shape>
+  <shape type="cube"><bsdf type="roughdiffuse"><texture type="bitmap" name="reflectance">
+    <string name="filename" value="image.png"/><string name="wrapMode" value="one"/></texture></bsdf></shape>
+  <shape type="cylinder"><bsdf type="null"/></shape>
+  <emitter type="constant"><spectrum name="radiance" value="1"/></emitter>
+</scene>
+"#;
+
 fn serialized_seed() -> Vec<u8> {
     let quad = MeshData {
         positions: vec![Vec3::ZERO, Vec3::X, Vec3::new(1.0, 1.0, 0.0), Vec3::Y],
@@ -71,6 +103,11 @@ fn seed_dir() -> &'static Path {
         std::fs::write(dir.join("quad.obj"), OBJ).unwrap();
         std::fs::write(dir.join("quad.ply"), PLY).unwrap();
         std::fs::write(dir.join("mesh.serialized"), serialized_seed()).unwrap();
+        std::fs::copy(
+            Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/grazing_texture/checker.png"),
+            dir.join("image.png"),
+        )
+        .unwrap();
         dir
     })
 }
@@ -167,6 +204,41 @@ proptest! {
                 prop_assert!(!err.message.is_empty());
             }
         }
+    }
+
+    #[test]
+    fn mutated_mitsuba06_scene_xml_never_panics(e in edits()) {
+        let bytes = mutate(XML06.as_bytes(), &e);
+        let Ok(text) = std::str::from_utf8(&bytes) else { return Ok(()) };
+        let path = seed_dir().join("scene06.xml");
+        for strictness in [Strictness::Strict, Strictness::Lenient] {
+            let r = parse_scene_str(text, &path, &[]).and_then(|d| {
+                build_scene(&d, &BuildOptions { strictness, ..Default::default() })
+            });
+            if let Err(err) = r {
+                let msg = err.to_string();
+                prop_assert!(err.loc.is_some(), "error without a location: {msg}");
+                prop_assert!(!err.message.is_empty());
+            }
+        }
+    }
+
+    #[test]
+    fn mip_map_lookups_stay_finite(
+        w in 1u32..9,
+        h in 1u32..9,
+        values in prop::collection::vec(0.0f32..10.0, 64),
+        uv in (any::<f32>(), any::<f32>()),
+        d in (any::<f32>(), any::<f32>(), any::<f32>(), any::<f32>()),
+        wrap in (0usize..5, 0usize..5),
+    ) {
+        let modes = [WrapMode::Repeat, WrapMode::Mirror, WrapMode::Clamp, WrapMode::Zero, WrapMode::One];
+        let texels = (0..(w * h) as usize).map(|i| Vec3::splat(values[i % 64])).collect();
+        let b = Bitmap::new(w, h, texels, BitmapFilter::Trilinear, [modes[wrap.0], modes[wrap.1]],
+            UvTransform::IDENTITY).unwrap();
+        let fp = UvFootprint { duv_dx: Vec2::new(d.0, d.1), duv_dy: Vec2::new(d.2, d.3) };
+        let v = b.eval_filtered(Vec2::new(uv.0, uv.1), &fp);
+        prop_assert!(v.is_finite() && v.min_element() >= 0.0 && v.max_element() <= 10.0, "{v}");
     }
 
     #[test]

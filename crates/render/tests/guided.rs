@@ -584,7 +584,7 @@ fn albedo_roulette_survivals_do_not_compound() {
         let film = glam::Vec2::new((pixel % w) as f32, (pixel / w) as f32) + sampler.next_2d();
         let aperture = sampler.next_2d();
         let ray = scene.camera.generate_ray(film, aperture);
-        let l = integrator.li_traced(&scene.scene, ray, &mut sampler, &mut trace);
+        let l = integrator.li_traced(&scene.scene, &ray.into(), &mut sampler, &mut trace);
         assert!(l.is_finite());
         // Along each copy's lineage where the path was split: a copy continued from before the first
         // roulette plays its own first one.
@@ -654,7 +654,7 @@ fn splitting_keeps_the_mean() {
         let mut sampler = Sampler::new(SamplerKind::Independent, 13, pixel as u64, i);
         let film = glam::Vec2::new((pixel % w) as f32, (pixel / w) as f32) + sampler.next_2d();
         let ray = scene.camera.generate_ray(film, sampler.next_2d());
-        let l = integrator.li_traced(&scene.scene, ray, &mut sampler, &mut trace);
+        let l = integrator.li_traced(&scene.scene, &ray.into(), &mut sampler, &mut trace);
         // Every copy's light is recorded: the lights add up to the sample's value.
         let lights: f32 = trace.lights.iter().map(|l| l.value).sum();
         let value = l.element_sum() / 3.0;

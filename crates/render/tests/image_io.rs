@@ -1,21 +1,8 @@
 //! EXR/PNG input and output, and image statistics, including reading Mitsuba 3 reference renders.
 
 use focal_render::film::{Image, ImageLayer};
+use focal_render::testing::test_data_dir;
 use std::path::{Path, PathBuf};
-
-/// The shared data folder: $FOCAL_SHARED, else `<manifest>/../../../shared`, else `/work/shared`.
-fn shared_dir() -> PathBuf {
-    let candidates = [
-        std::env::var_os("FOCAL_SHARED").map(PathBuf::from),
-        Some(Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared")),
-        Some(PathBuf::from("/work/shared")),
-    ];
-    candidates
-        .into_iter()
-        .flatten()
-        .find(|p| p.join("references").is_dir())
-        .expect("shared data folder not found (set FOCAL_SHARED)")
-}
 
 fn temp_path(name: &str) -> PathBuf {
     let dir = std::env::temp_dir().join(format!("focal-image-io-{}", std::process::id()));
@@ -73,7 +60,7 @@ fn reading_a_missing_or_broken_exr_is_an_error() {
 
 #[test]
 fn mitsuba_reference_exr_reads_with_the_recorded_mean() {
-    let dir = shared_dir().join("references/mitsuba3");
+    let dir = test_data_dir().join("references/mitsuba3");
     let img = Image::read_exr(&dir.join("cbox_llvm_256px_1024spp.exr")).unwrap();
     assert_eq!((img.width, img.height), (256, 256));
     assert!(img.layers.is_empty());
@@ -170,7 +157,7 @@ fn statistics_and_arithmetic() {
 
 #[test]
 fn every_mitsuba_reference_matches_its_recorded_mean() {
-    let dir = shared_dir().join("references/mitsuba3");
+    let dir = test_data_dir().join("references/mitsuba3");
     for name in [
         "cbox_llvm_256px_1024spp",
         "caustic_llvm_256px_4096spp",

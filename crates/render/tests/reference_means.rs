@@ -83,7 +83,7 @@ fn cornell_box_per_pixel_error_is_noise() {
     let a = render_loaded(&scene, &settings(n, 11, 0)).image;
     let b = render_loaded(&scene, &settings(n, 12, 0)).image;
     let reference =
-        Image::read_exr(&shared_dir().join("references/mitsuba3/cbox_llvm_256px_1024spp.exr"))
+        Image::read_exr(&test_data_dir().join("references/mitsuba3/cbox_llvm_256px_1024spp.exr"))
             .unwrap();
     assert_eq!((reference.width, reference.height), (a.width, a.height));
     let mut m = a.clone();

@@ -1,9 +1,9 @@
-//! Tests of the Mitsuba XML reader: the real scenes of the shared corpus, and one small document per rule.
+//! Tests of the Mitsuba XML reader: the real scenes of the vendored corpus, and one small document per rule.
 
 use focal_render::color::srgb_to_linear;
 use focal_render::desc::xml::{look_at, parse_scene_file, parse_scene_str, to_snake_case};
 use focal_render::desc::{ObjectClass, ObjectDesc, PropValue, SceneDesc, SpectrumDesc};
-use focal_render::testing::shared_dir;
+use focal_render::testing::test_data_dir;
 use glam::{DVec3, Mat4, Vec3};
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
@@ -60,9 +60,9 @@ fn temp_dir(name: &str) -> PathBuf {
 
 #[test]
 fn every_corpus_and_reference_scene_parses() {
-    let shared = shared_dir();
+    let data = test_data_dir();
     let mut files: Vec<PathBuf> = Vec::new();
-    for dir in [shared.join("corpus"), shared.join("references/scenes")] {
+    for dir in [data.join("corpus"), data.join("references/scenes")] {
         let mut folders = vec![dir.clone()];
         folders.extend(
             std::fs::read_dir(&dir)
@@ -93,8 +93,8 @@ fn every_corpus_and_reference_scene_parses() {
         "references/scenes/obscura.xml",
     ] {
         assert!(
-            files.contains(&shared.join(named)),
-            "{named} missing from the shared data"
+            files.contains(&data.join(named)),
+            "{named} missing from tests/data"
         );
     }
     for f in &files {
@@ -109,7 +109,7 @@ fn every_corpus_and_reference_scene_parses() {
 
 #[test]
 fn legacy_cornell_box_reads_like_a_3x_scene() {
-    let s = parse_scene_file(&shared_dir().join("corpus/cbox-mi05/cbox.xml"), &[]).unwrap();
+    let s = parse_scene_file(&test_data_dir().join("corpus/cbox-mi05/cbox.xml"), &[]).unwrap();
     assert_eq!(s.version, (0, 5, 0));
     let integrator = &s
         .root
@@ -162,7 +162,7 @@ fn legacy_cornell_box_reads_like_a_3x_scene() {
 
 #[test]
 fn included_scene_is_inlined_and_its_files_resolve_like_mitsuba() {
-    let main = shared_dir().join("corpus/veach-mis-mi3/integrator_direct_both.xml");
+    let main = test_data_dir().join("corpus/veach-mis-mi3/integrator_direct_both.xml");
     let s = parse_scene_file(&main, &[]).unwrap();
     assert_eq!(s.root.children_of(&ObjectClass::Integrator).count(), 1);
     assert_eq!(s.root.children_of(&ObjectClass::Shape).count(), 10);
@@ -206,7 +206,7 @@ fn included_scene_is_inlined_and_its_files_resolve_like_mitsuba() {
 
 #[test]
 fn named_refs_keep_their_name() {
-    let s = parse_scene_file(&shared_dir().join("corpus/glass-of-milk/scene.xml"), &[]).unwrap();
+    let s = parse_scene_file(&test_data_dir().join("corpus/glass-of-milk/scene.xml"), &[]).unwrap();
     let milk_top = s.root.children_of(&ObjectClass::Shape).nth(1).unwrap();
     let interior = milk_top.object.named_child("interior").unwrap();
     assert_eq!(interior.object.class, ObjectClass::Medium);

@@ -1,6 +1,6 @@
 //! The exact directional pdf of "sample y ~ N(μ, Σ), go towards y": the Gaussian restricted to the
-//! half-line x + tω, integrated with the solid-angle Jacobian t² (design note, "Sampling and the exact
-//! directional pdf").
+//! half-line x + tω, integrated with the solid-angle Jacobian t² (`docs/design/gmm.md`, "Sampling and the
+//! exact directional pdf").
 //!
 //! Along the line, N(x + tω) = exp(ln c − (t − m)²/(2s²)) with, for P = Σ⁻¹ and d = μ − x,
 //! s² = 1/(ωᵀPω), m = s² ωᵀPd and ln c = ln N₀ − ½(dᵀPd − m²/s²). Everything is computed from the

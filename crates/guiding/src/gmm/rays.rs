@@ -1,9 +1,9 @@
 //! Training rays and the weighted points EM fits to them.
 //!
-//! A recorded segment becomes one ray per mixture it trains (design note "Training data"; octree note
-//! §3.3): origin x_k, unit direction (ω, or −ω for the diverging mixture), and the interval [t0, t1] of
-//! the segment (non-glossy endpoint) or of the whole half-line (glossy endpoint) clipped to the scene
-//! box. Rays live in the guide's unit frame (see `guide.rs`), in `f32` to halve the buffer.
+//! A recorded segment becomes one ray per mixture it trains (`docs/design/gmm.md`, "Training rays";
+//! `docs/design/octree.md` §3.3): origin x_k, unit direction (ω, or −ω for the diverging mixture), and
+//! the interval [t0, t1] of the segment (non-glossy endpoint) or of the whole half-line (glossy
+//! endpoint) clipped to the scene box. Rays live in the guide's unit frame (see `guide.rs`), in `f32` to halve the buffer.
 //!
 //! Points along a ray carry the ray's share of the fitting target, which is a density along the ray:
 //! - uniform (before narrowing): c per unit length, so n stratified uniform points of weight c·(t1−t0)/n;

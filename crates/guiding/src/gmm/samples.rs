@@ -44,7 +44,7 @@ impl GmmGuide {
         samples.into_data::<GmmSamples>(self.updates)
     }
 
-    /// Clips the batch's segments to rays and buffers them (§3.3 of the octree note): the segment for
+    /// Clips the batch's segments to rays and buffers them (`docs/design/octree.md` §3.3): the segment for
     /// a non-glossy endpoint, the forward and backward half-lines for a glossy one (unless the path
     /// refracted through it and `points.extend_through_refraction` is off). Segments with a non-finite
     /// or negative weight, an invalid pdf or geometry are dropped, zero weights skipped.

@@ -1,6 +1,6 @@
 //! Truncated Gaussian sampling: the 1D truncated standard normal by inverse CDF (used for hemisphere
 //! truncation and for drawing points along training rays), and a 3D Gaussian conditioned on one side of
-//! a plane (design note, "Hemisphere truncation").
+//! a plane (`docs/design/gmm.md`, "Hemisphere truncation").
 
 use glam::DVec3;
 

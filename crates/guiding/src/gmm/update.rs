@@ -15,8 +15,8 @@ use super::samples::GmmSamples;
 use crate::{UpdateContext, UpdateStats};
 
 /// A mixture holding less than this share of the total (decayed + new) training weight is dropped: it
-/// would cost as much per pdf evaluation as a useful one while adding nothing to the sampling (caustic
-/// scene: the diverging mixture held 1e-16 of the weight with 63 components).
+/// would cost as much per pdf evaluation as a useful one while adding nothing to the sampling
+/// (observed: docs/experiments/2026-12-01-gmm-mixture-cost.md).
 pub const MIN_MIXTURE_SHARE: f64 = 1e-3;
 /// The most points drawn along one ray when rays are few (`PointsConfig::min`).
 const MAX_ADAPTIVE_POINTS_PER_RAY: usize = 64;

@@ -1,6 +1,6 @@
 //! The focal-guiding octree guide of Rath, Yazici & Slusallek 2023: a converging and a diverging
 //! [`FocalTree`] mixed with the learned probability p_div, trained from path segments between
-//! iterations (design notes `focal-guiding-octree.md` §3, §4, §6).
+//! iterations (`docs/design/octree.md` §3, §4, §6).
 
 use std::any::Any;
 use std::time::Instant;

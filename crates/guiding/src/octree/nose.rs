@@ -1,6 +1,6 @@
 //! Reader and writer for the authors' `.nose` octree dumps (`<output>.conv.nose`, `<output>.div.nose`,
-//! design notes §7.3), so their shipped trees can be evaluated with this port and ours viewed in their
-//! visualizer.
+//! `docs/design/octree.md` §7), so their shipped trees can be evaluated with this port and ours viewed in
+//! their visualizer.
 //!
 //! Layout (little-endian, single precision): "NOSE" magic (bytes `ESON`), type sizes 4, 12, 12, 24, 8
 //! (u16 each), the AABB (6 × f32), "ORTH" magic (bytes `HTRO`), sizes 28 and 96 (u16), the 28-byte

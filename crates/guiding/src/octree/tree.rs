@@ -1,7 +1,7 @@
 //! One focal orthtree (Rath, Yazici & Slusallek 2023): an adaptive octree over the scene box holding a
 //! piecewise-constant spatial density ρ with ∫ρ dV = 1, learned from splatted path segments.
 //!
-//! Faithful to the authors' `focal_guiding::Orthtree` (design notes `focal-guiding-octree.md` §2–§4),
+//! Faithful to the authors' `focal_guiding::Orthtree` (`docs/design/octree.md` §2–§4),
 //! with these documented, distribution-preserving deviations:
 //! - accumulators are `f64` and live in a separate array (the node array holds only child index and
 //!   density); the renderer's splats are summed per chunk in a fixed order instead of atomics;

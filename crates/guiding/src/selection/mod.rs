@@ -33,9 +33,8 @@
 //! while training and for the learned one in the final render. The GMM guide's configuration turns it
 //! on (`selection.learn`, with the share rule and a least fraction of 0.4); the octree's leaves the
 //! renderer's fixed fraction (Rath et al.'s 0.5) until the layer is measured on it. With the second-
-//! moment rule it did not beat the fixed fraction on focal scenes at equal time, with the absolute
-//! second moment (dominated by bright pixels) nor with the emission- and pixel-weighted one (see
-//! `docs/experiments/`).
+//! moment rule it did not beat the fixed fraction on focal scenes at equal time
+//! (docs/experiments/2026-12-01-selection-second-moment.md).
 
 mod grid;
 mod layer;

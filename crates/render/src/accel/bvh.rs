@@ -12,7 +12,8 @@ use std::time::Duration;
 /// How far behind its origin a ray starts for the BVH traversal. `obvhs`' node test (0.4) culls every
 /// box the ray leaves within 1e-4 of its origin, ignoring the ray's own least distance: a path vertex
 /// nearer than that to another surface (a room's corner, a gap) saw through it, and on the camera
-/// obscura such leaks to the bright sky were the brightest samples of every guided render.
+/// obscura such leaks to the bright sky were the brightest samples of every guided render
+/// (docs/experiments/2026-12-03-bvh-near-hits.md).
 const TRAVERSAL_SHIFT: f32 = 2e-4;
 
 /// Marks [`TriPrim::tri`] as an index into [`BvhAccel::analytic`] instead of a triangle index.
@@ -193,18 +194,19 @@ impl Accel for BvhAccel {
             .ray_traverse(Self::to_bvh_ray(ray), &mut hit, |r, id| {
                 let t_max = (r.tmax - TRAVERSAL_SHIFT).min(ray.t_max);
                 match self.intersect_prim(&self.prims[id], o, d, t_max) {
-                    Some((t, b)) => {
+                    // The shifted distance rounds, so a primitive a hair behind the best can pass the
+                    // t_max test here; keep the closest in real distance (ties: the first found).
+                    Some((t, b)) if best.is_none_or(|(_, _, bt)| t < bt) => {
                         best = Some((id, b, t));
                         t + TRAVERSAL_SHIFT
                     }
-                    None => f32::INFINITY,
+                    _ => f32::INFINITY,
                 }
             });
         if !found {
             return None;
         }
         let (id, bary, t) = best?;
-        debug_assert_eq!(id as u32, hit.primitive_id);
         let p = &self.prims[id];
         let (shape, prim) = (p.shape, if p.tri & ANALYTIC != 0 { 0 } else { p.tri });
         Some(PrimHit {

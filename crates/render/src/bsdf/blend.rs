@@ -2,6 +2,7 @@
 //! Sampling picks a component with probability (1 − w, w); smooth samples report the blended pdf and
 //! eval/pdf as weight, so MIS sees one consistent density.
 
+use super::TextureAt;
 use super::{Bsdf, BsdfContext, BsdfSample};
 use crate::color::Rgb;
 use crate::texture::Texture;
@@ -19,7 +20,7 @@ pub struct Blend {
 impl Blend {
     #[inline]
     fn w(&self, ctx: &BsdfContext) -> f32 {
-        let w = self.weight.eval_1(ctx.uv);
+        let w = self.weight.at_1(ctx);
         if w.is_finite() {
             w.clamp(0.0, 1.0)
         } else {

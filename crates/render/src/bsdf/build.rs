@@ -1,15 +1,17 @@
 //! Builds BSDFs from the neutral scene description with Mitsuba 3's parameter names and defaults
 //! (Mitsuba 0.6 names arrive already normalised to snake_case, e.g. `intIOR` → `int_ior`).
 
-use super::ior::{conductor_ior, conductor_names, dielectric_ior, dielectric_names};
+use super::params::{
+    conductor_eta_k, microfacet, optional_texture, relative_ior, texture, texture_from_desc,
+};
 use super::{
-    is_positive, Bsdf, Conductor, Dielectric, Diffuse, Microfacet, MicrofacetKind, Plastic,
-    RoughConductor, RoughDielectric, RoughPlastic, ThinDielectric, TwoSided,
+    Bsdf, Conductor, Dielectric, Diffuse, Plastic, RoughConductor, RoughDielectric, RoughPlastic,
+    ThinDielectric, TwoSided,
 };
 use crate::color::Rgb;
-use crate::desc::{ObjectClass, ObjectDesc, PropValue, Property};
+use crate::desc::{ObjectClass, ObjectDesc};
 use crate::error::{SceneError, SceneResult};
-use crate::texture::{Bitmap, Checkerboard, Texture, UvTransform};
+use crate::texture::{Bitmap, Texture};
 use std::sync::Arc;
 
 /// The BSDF plugins we can build.
@@ -27,16 +29,50 @@ const KNOWN_PLUGINS: &[&str] = &[
     "blendbsdf",
     "mask",
     "difftrans",
+    "null",
+    "roughdiffuse",
+    "phong",
+    "ward",
 ];
 
-/// Builds the BSDF described by a `<bsdf>` element.
+/// Builds the BSDF described by a `<bsdf>` element, dropping warnings (see [`build_bsdf`]).
 pub fn bsdf_from_desc(obj: &ObjectDesc) -> SceneResult<Bsdf> {
+    build_bsdf(obj, &mut Vec::new())
+}
+
+/// Builds the BSDF described by a `<bsdf>` element; approximations and leniencies (documented in
+/// docs/plugins.md) append a located message to `warnings`.
+pub fn build_bsdf(obj: &ObjectDesc, warnings: &mut Vec<String>) -> SceneResult<Bsdf> {
+    let w = warnings;
     match obj.plugin.as_str() {
         "diffuse" => Ok(Bsdf::Diffuse(Diffuse {
             reflectance: texture(obj, &["reflectance"], Rgb::splat(0.5))?,
         })),
+        "roughdiffuse" => {
+            w.push(format!(
+                "{}: 'roughdiffuse' (Oren-Nayar) is rendered as Lambertian 'diffuse' with the same \
+                 reflectance (its 'alpha' is ignored)",
+                obj.loc
+            ));
+            Ok(Bsdf::Diffuse(Diffuse {
+                reflectance: texture(obj, &["reflectance"], Rgb::splat(0.5))?,
+            }))
+        }
+        "phong" => Ok(Bsdf::Phong(Box::new(super::Phong::new(
+            texture(obj, &["exponent"], Rgb::splat(30.0))?,
+            texture(obj, &["specular_reflectance"], Rgb::splat(0.2))?,
+            texture(obj, &["diffuse_reflectance"], Rgb::splat(0.5))?,
+        )))),
+        "ward" => super::params::ward(obj),
+        // Mitsuba 3's `null`: light passes through unchanged, i.e. a mask of opacity 0.
+        "null" => Ok(Bsdf::Mask(Box::new(super::Mask {
+            nested: Bsdf::Diffuse(Diffuse {
+                reflectance: Texture::constant(0.0),
+            }),
+            opacity: Texture::constant(0.0),
+        }))),
         "conductor" => {
-            let (eta, k) = conductor_eta_k(obj)?;
+            let (eta, k) = conductor_eta_k(obj, w)?;
             Ok(Bsdf::Conductor(Box::new(Conductor {
                 eta,
                 k,
@@ -44,9 +80,9 @@ pub fn bsdf_from_desc(obj: &ObjectDesc) -> SceneResult<Bsdf> {
             })))
         }
         "roughconductor" => {
-            let (eta, k) = conductor_eta_k(obj)?;
+            let (eta, k) = conductor_eta_k(obj, w)?;
             Ok(Bsdf::RoughConductor(Box::new(RoughConductor {
-                distribution: microfacet(obj, true)?,
+                distribution: microfacet(obj, true, w)?,
                 eta,
                 k,
                 specular_reflectance: texture(obj, &["specular_reflectance"], Rgb::ONE)?,
@@ -63,7 +99,7 @@ pub fn bsdf_from_desc(obj: &ObjectDesc) -> SceneResult<Bsdf> {
             specular_transmittance: texture(obj, &["specular_transmittance"], Rgb::ONE)?,
         })),
         "roughdielectric" => Ok(Bsdf::RoughDielectric(Box::new(RoughDielectric {
-            distribution: microfacet(obj, true)?,
+            distribution: microfacet(obj, true, w)?,
             eta: relative_ior(obj, "bk7", true)?,
             specular_reflectance: texture(obj, &["specular_reflectance"], Rgb::ONE)?,
             specular_transmittance: texture(obj, &["specular_transmittance"], Rgb::ONE)?,
@@ -75,7 +111,7 @@ pub fn bsdf_from_desc(obj: &ObjectDesc) -> SceneResult<Bsdf> {
             obj.bool_or("nonlinear", false)?,
         )))),
         "roughplastic" => {
-            let dist = microfacet(obj, false)?;
+            let dist = microfacet(obj, false, w)?;
             Ok(Bsdf::RoughPlastic(Box::new(RoughPlastic::new(
                 dist.kind,
                 dist.alpha_u,
@@ -86,10 +122,10 @@ pub fn bsdf_from_desc(obj: &ObjectDesc) -> SceneResult<Bsdf> {
                 obj.bool_or("nonlinear", false)?,
             ))))
         }
-        "twosided" => twosided(obj),
-        "normalmap" => normalmap(obj),
-        "blendbsdf" => blend(obj),
-        "mask" => mask(obj),
+        "twosided" => twosided(obj, w),
+        "normalmap" => normalmap(obj, w),
+        "blendbsdf" => blend(obj, w),
+        "mask" => mask(obj, w),
         "difftrans" => Ok(Bsdf::DiffuseTransmitter(super::DiffuseTransmitter {
             // Mitsuba 0.6 also reads `diffuseTransmittance`.
             transmittance: texture(
@@ -109,260 +145,8 @@ pub fn bsdf_from_desc(obj: &ObjectDesc) -> SceneResult<Bsdf> {
     }
 }
 
-/// The first property present under any of the given names (current name first, then aliases).
-fn find_prop<'a>(obj: &'a ObjectDesc, names: &[&str]) -> Option<&'a Property> {
-    names.iter().find_map(|n| obj.prop(n))
-}
-
-/// Rejects a nested `<texture>` bound to one of `names` (bitmap/procedural textures come later).
-fn reject_texture_child(obj: &ObjectDesc, names: &[&str]) -> SceneResult<()> {
-    for n in names {
-        if let Some(child) = obj.named_child(n) {
-            return Err(SceneError::at(
-                &child.object.loc,
-                format!(
-                    "parameter '{n}' of {} '{}': textures not yet supported (<{} type=\"{}\">)",
-                    obj.class.tag(),
-                    obj.plugin,
-                    child.object.class.tag(),
-                    child.object.plugin
-                ),
-            ));
-        }
-    }
-    Ok(())
-}
-
-/// A colour parameter as a constant texture (rgb, spectrum or float), or `default`.
-fn texture(obj: &ObjectDesc, names: &[&str], default: Rgb) -> SceneResult<Texture> {
-    Ok(optional_texture(obj, names)?.unwrap_or(Texture::Constant(default)))
-}
-
-/// Builds a nested `<texture>` element: `bitmap` or `checkerboard`.
-pub fn texture_from_desc(t: &ObjectDesc) -> SceneResult<Texture> {
-    match t.plugin.as_str() {
-        "bitmap" => Ok(Texture::Bitmap(Arc::new(Bitmap::from_desc(t)?))),
-        "checkerboard" => {
-            reject_texture_child(t, &["color0", "color1"])?;
-            Ok(Texture::Checkerboard(Arc::new(Checkerboard {
-                color0: t.rgb_or("color0", Rgb::splat(0.4))?,
-                color1: t.rgb_or("color1", Rgb::splat(0.2))?,
-                to_uv: UvTransform::from_desc(t)?,
-            })))
-        }
-        other => Err(t.error(format!(
-            "unsupported texture plugin '{other}' (supported: bitmap, checkerboard)"
-        ))),
-    }
-}
-
-/// A colour parameter as a texture (a nested `<texture>`, or a constant rgb, spectrum or float), or
-/// `None` if absent.
-fn optional_texture(obj: &ObjectDesc, names: &[&str]) -> SceneResult<Option<Texture>> {
-    for n in names {
-        if let Some(child) = obj.named_child(n) {
-            if child.object.class == ObjectClass::Texture {
-                return texture_from_desc(&child.object).map(Some);
-            }
-        }
-    }
-    reject_texture_child(obj, names)?;
-    match find_prop(obj, names) {
-        None => Ok(None),
-        Some(p) => {
-            let v = obj.rgb_or(&p.name, Rgb::ZERO)?;
-            if !v.is_finite() {
-                return Err(SceneError::at(
-                    &p.loc,
-                    format!("parameter '{}' must be finite, found {v}", p.name),
-                ));
-            }
-            Ok(Some(Texture::Constant(v)))
-        }
-    }
-}
-
-/// A float parameter under any of `names`, or `default`; with its property for error locations.
-fn float_param<'a>(
-    obj: &'a ObjectDesc,
-    names: &[&str],
-    default: f64,
-) -> SceneResult<(f64, Option<&'a Property>)> {
-    match find_prop(obj, names) {
-        None => Ok((default, None)),
-        Some(p) => {
-            let v = obj.float_or(&p.name, default)?;
-            if !v.is_finite() {
-                return Err(SceneError::at(
-                    &p.loc,
-                    format!("parameter '{}' must be finite, found {v}", p.name),
-                ));
-            }
-            Ok((v, Some(p)))
-        }
-    }
-}
-
-/// An index of refraction given as a number or a material name from Mitsuba's table.
-fn ior_param(obj: &ObjectDesc, names: &[&str], default_name: &str) -> SceneResult<f32> {
-    let Some(p) = find_prop(obj, names) else {
-        return Ok(dielectric_ior(default_name).expect("default IOR names are in the table"));
-    };
-    let v = match &p.value {
-        PropValue::String(name) => dielectric_ior(name).ok_or_else(|| {
-            SceneError::at(
-                &p.loc,
-                format!(
-                    "unknown index of refraction '{name}' for '{}' (known: {})",
-                    p.name,
-                    dielectric_names().collect::<Vec<_>>().join(", ")
-                ),
-            )
-        })?,
-        _ => obj.float_or(&p.name, 1.0)? as f32,
-    };
-    if !is_positive(v) || !v.is_finite() {
-        return Err(SceneError::at(
-            &p.loc,
-            format!(
-                "index of refraction '{}' must be positive, found {v}",
-                p.name
-            ),
-        ));
-    }
-    Ok(v)
-}
-
-/// int_ior / ext_ior (ext_ior defaults to air, 1.000277, as in Mitsuba 3). `must_differ` rejects
-/// index-matched interfaces, which the rough models cannot represent (as Mitsuba).
-fn relative_ior(obj: &ObjectDesc, default_int: &str, must_differ: bool) -> SceneResult<f32> {
-    let int_names = ["int_ior", "int_i_o_r"];
-    let int_ior = ior_param(obj, &int_names, default_int)?;
-    let ext_ior = ior_param(obj, &["ext_ior", "ext_i_o_r"], "air")?;
-    if must_differ && int_ior == ext_ior {
-        let loc = find_prop(obj, &int_names).map_or(&obj.loc, |p| &p.loc);
-        return Err(SceneError::at(
-            loc,
-            format!(
-                "{} '{}': the interior and exterior indices of refraction must differ",
-                obj.class.tag(),
-                obj.plugin
-            ),
-        ));
-    }
-    Ok(int_ior / ext_ior)
-}
-
-/// The complex IOR of a conductor: `eta`/`k` (defaults 0 and 1), or a named `material` (default
-/// "none", a perfect mirror); not both. A Mitsuba 0.6 `ext_eta` divides both.
-fn conductor_eta_k(obj: &ObjectDesc) -> SceneResult<(Texture, Texture)> {
-    let material = obj.string_or("material", "none")?;
-    let has_eta_k = obj.prop("eta").is_some() || obj.prop("k").is_some();
-    let (eta, k) = if has_eta_k || material == "none" {
-        if material != "none" {
-            let p = obj.prop("material").expect("material was given");
-            return Err(SceneError::at(
-                &p.loc,
-                "specify either 'eta'/'k' or 'material', not both",
-            ));
-        }
-        let eta = texture(obj, &["eta"], Rgb::ZERO)?;
-        let k = texture(obj, &["k"], Rgb::ONE)?;
-        match (eta, k) {
-            (Texture::Constant(e), Texture::Constant(k)) => (e, k),
-            _ => {
-                return Err(obj.error(
-                    "conductor 'eta' and 'k' must be constant (textures are not supported)",
-                ))
-            }
-        }
-    } else {
-        conductor_ior(&material).ok_or_else(|| {
-            let p = obj.prop("material").expect("material was given");
-            SceneError::at(
-                &p.loc,
-                format!(
-                    "unknown conductor material '{material}' (known: {})",
-                    conductor_names().collect::<Vec<_>>().join(", ")
-                ),
-            )
-        })?
-    };
-    if eta.min_element() < 0.0 || k.min_element() < 0.0 {
-        return Err(obj.error("conductor 'eta' and 'k' must be non-negative"));
-    }
-    let ext_eta = ior_param(obj, &["ext_eta"], "vacuum")?;
-    Ok((
-        Texture::Constant(eta / ext_eta),
-        Texture::Constant(k / ext_eta),
-    ))
-}
-
-/// The microfacet distribution: `distribution` (beckmann | ggx, default beckmann), `alpha` or
-/// `alpha_u`/`alpha_v` (default 0.1), `sample_visible` (default true).
-fn microfacet(obj: &ObjectDesc, allow_anisotropic: bool) -> SceneResult<Microfacet> {
-    let kind = match obj.prop("distribution") {
-        None => MicrofacetKind::Beckmann,
-        Some(p) => {
-            let name = obj.string_or("distribution", "beckmann")?;
-            match name.to_ascii_lowercase().as_str() {
-                "beckmann" => MicrofacetKind::Beckmann,
-                "ggx" => MicrofacetKind::Ggx,
-                _ => {
-                    return Err(SceneError::at(
-                        &p.loc,
-                        format!(
-                            "invalid microfacet distribution '{name}', must be 'beckmann' or 'ggx'"
-                        ),
-                    ))
-                }
-            }
-        }
-    };
-    reject_texture_child(obj, &["alpha", "alpha_u", "alpha_v"])?;
-    let alpha = float_param(obj, &["alpha"], 0.1)?;
-    let alpha_u = float_param(obj, &["alpha_u"], 0.1)?;
-    let alpha_v = float_param(obj, &["alpha_v"], 0.1)?;
-    let (au, av) = match (alpha.1, alpha_u.1, alpha_v.1) {
-        (Some(p), Some(_), _) | (Some(p), _, Some(_)) => {
-            return Err(SceneError::at(
-                &p.loc,
-                "specify either 'alpha' or 'alpha_u'/'alpha_v', not both",
-            ))
-        }
-        (Some(_), None, None) => (alpha.0, alpha.0),
-        (None, Some(_), Some(_)) => (alpha_u.0, alpha_v.0),
-        (None, Some(p), None) | (None, None, Some(p)) => {
-            return Err(SceneError::at(
-                &p.loc,
-                "both 'alpha_u' and 'alpha_v' must be specified",
-            ))
-        }
-        (None, None, None) => (0.1, 0.1),
-    };
-    for (v, p) in [alpha, alpha_u, alpha_v] {
-        if let Some(p) = p {
-            if v < 0.0 {
-                return Err(SceneError::at(
-                    &p.loc,
-                    format!("roughness '{}' must be non-negative, found {v}", p.name),
-                ));
-            }
-        }
-    }
-    if !allow_anisotropic && au != av {
-        let p = alpha_u.1.expect("anisotropy needs alpha_u");
-        return Err(SceneError::at(
-            &p.loc,
-            format!("'{}' does not support anisotropic roughness", obj.plugin),
-        ));
-    }
-    let sample_visible = obj.bool_or("sample_visible", true)?;
-    Ok(Microfacet::new(kind, au as f32, av as f32, sample_visible))
-}
-
 /// `blendbsdf`: two nested BSDFs (`bsdf_0`, `bsdf_1` or in document order) and `weight` (default 0.5).
-fn blend(obj: &ObjectDesc) -> SceneResult<Bsdf> {
+fn blend(obj: &ObjectDesc, w: &mut Vec<String>) -> SceneResult<Bsdf> {
     let nested: Vec<_> = obj.children_of(&ObjectClass::Bsdf).collect();
     if nested.len() != 2 {
         return Err(obj.error(format!(
@@ -387,13 +171,13 @@ fn blend(obj: &ObjectDesc) -> SceneResult<Bsdf> {
         }
     }
     Ok(Bsdf::Blend(Box::new(super::Blend {
-        bsdfs: Box::new([bsdf_from_desc(&b0.object)?, bsdf_from_desc(&b1.object)?]),
+        bsdfs: Box::new([build_bsdf(&b0.object, w)?, build_bsdf(&b1.object, w)?]),
         weight,
     })))
 }
 
 /// `mask`: one nested BSDF and `opacity` (constant or texture, default 0.5, values in [0, 1]).
-fn mask(obj: &ObjectDesc) -> SceneResult<Bsdf> {
+fn mask(obj: &ObjectDesc, w: &mut Vec<String>) -> SceneResult<Bsdf> {
     let nested: Vec<_> = obj.children_of(&ObjectClass::Bsdf).collect();
     if nested.len() != 1 {
         return Err(obj.error(format!(
@@ -412,14 +196,14 @@ fn mask(obj: &ObjectDesc) -> SceneResult<Bsdf> {
         }
     }
     Ok(Bsdf::Mask(Box::new(super::Mask {
-        nested: bsdf_from_desc(&nested[0].object)?,
+        nested: build_bsdf(&nested[0].object, w)?,
         opacity,
     })))
 }
 
 /// `normalmap`: one nested BSDF and the normal map, either a nested `<texture name="normalmap">` (Mitsuba
 /// 3) or a `filename` on the element itself (Mitsuba 2 / SMS); the image is read raw (no sRGB decoding).
-fn normalmap(obj: &ObjectDesc) -> SceneResult<Bsdf> {
+fn normalmap(obj: &ObjectDesc, w: &mut Vec<String>) -> SceneResult<Bsdf> {
     let nested: Vec<_> = obj.children_of(&ObjectClass::Bsdf).collect();
     if nested.len() != 1 {
         return Err(obj.error(format!(
@@ -440,13 +224,13 @@ fn normalmap(obj: &ObjectDesc) -> SceneResult<Bsdf> {
         )),
     };
     Ok(Bsdf::NormalMap(Box::new(super::NormalMap {
-        nested: bsdf_from_desc(&nested[0].object)?,
+        nested: build_bsdf(&nested[0].object, w)?,
         normals,
     })))
 }
 
 /// `twosided` with one nested BSDF (both sides) or two (front, back); transmissive models are rejected.
-fn twosided(obj: &ObjectDesc) -> SceneResult<Bsdf> {
+fn twosided(obj: &ObjectDesc, w: &mut Vec<String>) -> SceneResult<Bsdf> {
     let nested: Vec<_> = obj.children_of(&ObjectClass::Bsdf).collect();
     if nested.is_empty() || nested.len() > 2 {
         return Err(obj.error(format!(
@@ -456,7 +240,7 @@ fn twosided(obj: &ObjectDesc) -> SceneResult<Bsdf> {
     }
     let mut sides = Vec::with_capacity(2);
     for child in &nested {
-        let b = bsdf_from_desc(&child.object)?;
+        let b = build_bsdf(&child.object, w)?;
         if b.has_transmission() {
             return Err(SceneError::at(
                 &child.object.loc,
@@ -475,15 +259,15 @@ fn twosided(obj: &ObjectDesc) -> SceneResult<Bsdf> {
     };
     let front = sides.pop().expect("one side");
     Ok(Bsdf::TwoSided(TwoSided {
-        sides: Box::new([front, back]),
+        sides: std::sync::Arc::new([front, back]),
     }))
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::bsdf::BsdfContext;
-    use crate::desc::ChildDesc;
+    use crate::bsdf::{BsdfContext, MicrofacetKind};
+    use crate::desc::{ChildDesc, PropValue, Property};
     use crate::error::SourceLoc;
     use glam::Vec3;
     use std::path::PathBuf;
@@ -662,10 +446,10 @@ mod tests {
         assert!(msg.contains("non-negative"), "{msg}");
         let (line, msg) = err_line(bsdf_from_desc(&bsdf(
             "roughconductor",
-            &[("alpha", float(0.1)), ("distribution", string("phong"))],
+            &[("alpha", float(0.1)), ("distribution", string("blinn"))],
         )));
         assert_eq!(line, 3);
-        assert!(msg.contains("phong"), "{msg}");
+        assert!(msg.contains("blinn"), "{msg}");
         let (line, _) = err_line(bsdf_from_desc(&bsdf(
             "roughconductor",
             &[("alpha", float(0.1)), ("alpha_u", float(0.1))],

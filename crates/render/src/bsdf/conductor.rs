@@ -2,6 +2,7 @@
 //! reflectance; one-sided.
 
 use super::fresnel::{fresnel_conductor, reflect};
+use super::TextureAt;
 use super::{BsdfContext, BsdfSample};
 use crate::color::Rgb;
 use crate::texture::Texture;
@@ -21,8 +22,8 @@ pub struct Conductor {
 impl Conductor {
     /// Fresnel reflectance times the specular reflectance at incidence `cos_theta_i`.
     pub(super) fn reflectance(&self, ctx: &BsdfContext, cos_theta_i: f32) -> Rgb {
-        fresnel_conductor(cos_theta_i, self.eta.eval(ctx.uv), self.k.eval(ctx.uv))
-            * self.specular_reflectance.eval(ctx.uv)
+        fresnel_conductor(cos_theta_i, self.eta.at(ctx), self.k.at(ctx))
+            * self.specular_reflectance.at(ctx)
     }
 
     pub(super) fn sample(

@@ -2,6 +2,7 @@
 //! Fresnel reflectance; two-sided (the exterior is the side the normal points to).
 
 use super::fresnel::{fresnel_dielectric, reflect, refract};
+use super::TextureAt;
 use super::{BsdfContext, BsdfSample};
 use crate::texture::Texture;
 use glam::{Vec2, Vec3};
@@ -35,7 +36,7 @@ impl Dielectric {
             Some(BsdfSample {
                 wo: reflect(wi),
                 pdf: fr.f,
-                weight: self.specular_reflectance.eval(ctx.uv),
+                weight: self.specular_reflectance.at(ctx),
                 eta: 1.0,
                 delta: true,
             })
@@ -43,7 +44,7 @@ impl Dielectric {
             Some(BsdfSample {
                 wo: refract(wi, fr.cos_theta_t, fr.eta_ti).normalize(),
                 pdf: 1.0 - fr.f,
-                weight: self.specular_transmittance.eval(ctx.uv) * (fr.eta_ti * fr.eta_ti),
+                weight: self.specular_transmittance.at(ctx) * (fr.eta_ti * fr.eta_ti),
                 eta: fr.eta_it,
                 delta: true,
             })

@@ -2,6 +2,7 @@
 //! with a cosine distribution, f = T/π for directions on opposite sides, 0 for reflection. Works from
 //! both sides.
 
+use super::TextureAt;
 use super::{BsdfContext, BsdfSample};
 use crate::color::Rgb;
 use crate::texture::Texture;
@@ -21,7 +22,7 @@ impl DiffuseTransmitter {
         if !(wi.z * wo.z < 0.0) {
             return Rgb::ZERO;
         }
-        self.transmittance.eval(ctx.uv) * (FRAC_1_PI * wo.z.abs())
+        self.transmittance.at(ctx) * (FRAC_1_PI * wo.z.abs())
     }
 
     pub(super) fn pdf(&self, _ctx: &BsdfContext, wi: Vec3, wo: Vec3) -> f32 {
@@ -52,7 +53,7 @@ impl DiffuseTransmitter {
         Some(BsdfSample {
             wo,
             pdf,
-            weight: self.transmittance.eval(ctx.uv),
+            weight: self.transmittance.at(ctx),
             eta: 1.0,
             delta: false,
         })

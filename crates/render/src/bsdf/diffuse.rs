@@ -1,5 +1,6 @@
 //! Lambertian reflection (Mitsuba `diffuse`), one-sided.
 
+use super::TextureAt;
 use super::{BsdfContext, BsdfSample};
 use crate::color::Rgb;
 use crate::texture::Texture;
@@ -19,7 +20,7 @@ impl Diffuse {
         if wi.z <= 0.0 || wo.z <= 0.0 {
             return Rgb::ZERO;
         }
-        self.reflectance.eval(ctx.uv) * (FRAC_1_PI * wo.z)
+        self.reflectance.at(ctx) * (FRAC_1_PI * wo.z)
     }
 
     pub(super) fn pdf(&self, _ctx: &BsdfContext, wi: Vec3, wo: Vec3) -> f32 {
@@ -47,7 +48,7 @@ impl Diffuse {
         Some(BsdfSample {
             wo,
             pdf,
-            weight: self.reflectance.eval(ctx.uv),
+            weight: self.reflectance.at(ctx),
             eta: 1.0,
             delta: false,
         })

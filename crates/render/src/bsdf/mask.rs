@@ -11,6 +11,7 @@
 //! transmission (wo = −wi, weight (1 − o)/P) for callers that do not handle pass-through themselves
 //! (e.g. a mask nested in `blendbsdf`).
 
+use super::TextureAt;
 use super::{Bsdf, BsdfContext, BsdfSample};
 use crate::color::Rgb;
 use crate::texture::Texture;
@@ -29,7 +30,7 @@ impl Mask {
     /// The opacity at `ctx`, clamped to [0, 1] (NaN texels count as opaque).
     #[inline]
     pub fn opacity(&self, ctx: &BsdfContext) -> Rgb {
-        let o = self.opacity.eval(ctx.uv);
+        let o = self.opacity.at(ctx);
         Rgb::new(clamp01(o.x), clamp01(o.y), clamp01(o.z))
     }
 

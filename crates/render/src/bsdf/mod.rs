@@ -20,15 +20,18 @@ pub mod ior;
 mod mask;
 pub mod microfacet;
 mod normalmap;
+mod params;
+mod phong;
 mod plastic;
 mod roughconductor;
 mod roughdielectric;
 mod roughplastic;
 mod thindielectric;
 mod twosided;
+mod ward;
 
 pub use blend::Blend;
-pub use build::bsdf_from_desc;
+pub use build::{bsdf_from_desc, build_bsdf};
 pub use conductor::Conductor;
 pub use dielectric::Dielectric;
 pub use difftrans::DiffuseTransmitter;
@@ -36,15 +39,18 @@ pub use diffuse::Diffuse;
 pub use mask::Mask;
 pub use microfacet::{Microfacet, MicrofacetKind};
 pub use normalmap::NormalMap;
+pub use params::texture_from_desc;
+pub use phong::Phong;
 pub use plastic::Plastic;
 pub use roughconductor::RoughConductor;
 pub use roughdielectric::RoughDielectric;
 pub use roughplastic::RoughPlastic;
 pub use thindielectric::ThinDielectric;
 pub use twosided::TwoSided;
+pub use ward::{Ward, WardVariant};
 
 use crate::color::Rgb;
-use crate::texture::Texture;
+use crate::texture::{Texture, UvFootprint};
 use glam::{Vec2, Vec3};
 
 /// Per-query data a BSDF may need besides the directions.
@@ -52,6 +58,37 @@ use glam::{Vec2, Vec3};
 pub struct BsdfContext {
     /// Surface uv coordinates for texture lookups.
     pub uv: Vec2,
+    /// The pixel footprint in uv space at a camera ray's first hit (zero elsewhere), for MIP-mapped
+    /// textures.
+    pub footprint: UvFootprint,
+}
+
+impl BsdfContext {
+    /// A context at `uv` without a footprint.
+    pub fn at_uv(uv: Vec2) -> Self {
+        BsdfContext {
+            uv,
+            footprint: UvFootprint::default(),
+        }
+    }
+}
+
+/// Texture lookups at a BSDF query's uv and footprint.
+pub(crate) trait TextureAt {
+    /// The value at the query point.
+    fn at(&self, ctx: &BsdfContext) -> Rgb;
+    /// The scalar value (mean of the channels) at the query point.
+    fn at_1(&self, ctx: &BsdfContext) -> f32 {
+        let c = self.at(ctx);
+        (c.x + c.y + c.z) / 3.0
+    }
+}
+
+impl TextureAt for Texture {
+    #[inline]
+    fn at(&self, ctx: &BsdfContext) -> Rgb {
+        self.eval_filtered(ctx.uv, &ctx.footprint)
+    }
 }
 
 /// A sampled outgoing direction.
@@ -99,6 +136,10 @@ pub enum Bsdf {
     Mask(Box<Mask>),
     /// Ideal diffuse transmission (`difftrans`).
     DiffuseTransmitter(DiffuseTransmitter),
+    /// Modified Phong (Mitsuba 0.6 `phong`).
+    Phong(Box<Phong>),
+    /// Anisotropic Ward (Mitsuba 0.6 `ward`).
+    Ward(Box<Ward>),
 }
 
 /// True for a strictly positive number (false for NaN), for rejecting degenerate samples.
@@ -130,6 +171,8 @@ impl Bsdf {
             Bsdf::Blend(_) => "blendbsdf",
             Bsdf::Mask(_) => "mask",
             Bsdf::DiffuseTransmitter(_) => "difftrans",
+            Bsdf::Phong(_) => "phong",
+            Bsdf::Ward(_) => "ward",
         }
     }
 
@@ -147,6 +190,8 @@ impl Bsdf {
             Bsdf::Blend(b) => b.eval(ctx, wi, wo),
             Bsdf::Mask(b) => b.eval(ctx, wi, wo),
             Bsdf::DiffuseTransmitter(b) => b.eval(ctx, wi, wo),
+            Bsdf::Phong(b) => b.eval(ctx, wi, wo),
+            Bsdf::Ward(b) => b.eval(ctx, wi, wo),
             Bsdf::Conductor(_) | Bsdf::Dielectric(_) | Bsdf::ThinDielectric(_) => Rgb::ZERO,
         }
     }
@@ -165,6 +210,8 @@ impl Bsdf {
             Bsdf::Blend(b) => b.pdf(ctx, wi, wo),
             Bsdf::Mask(b) => b.pdf(ctx, wi, wo),
             Bsdf::DiffuseTransmitter(b) => b.pdf(ctx, wi, wo),
+            Bsdf::Phong(b) => b.pdf(ctx, wi, wo),
+            Bsdf::Ward(b) => b.pdf(ctx, wi, wo),
             Bsdf::Conductor(_) | Bsdf::Dielectric(_) | Bsdf::ThinDielectric(_) => 0.0,
         }
     }
@@ -187,6 +234,8 @@ impl Bsdf {
             Bsdf::Blend(b) => b.sample(ctx, wi, u1, u2),
             Bsdf::Mask(b) => b.sample(ctx, wi, u1, u2),
             Bsdf::DiffuseTransmitter(b) => b.sample(ctx, wi, u1, u2),
+            Bsdf::Phong(b) => b.sample(ctx, wi, u1, u2),
+            Bsdf::Ward(b) => b.sample(ctx, wi, u1, u2),
         }
     }
 
@@ -196,6 +245,7 @@ impl Bsdf {
         match self {
             Bsdf::Diffuse(_) | Bsdf::RoughConductor(_) | Bsdf::RoughDielectric(_) => true,
             Bsdf::Plastic(_) | Bsdf::RoughPlastic(_) | Bsdf::DiffuseTransmitter(_) => true,
+            Bsdf::Phong(_) | Bsdf::Ward(_) => true,
             Bsdf::Conductor(_) | Bsdf::Dielectric(_) | Bsdf::ThinDielectric(_) => false,
             Bsdf::TwoSided(b) => b.sides.iter().any(Bsdf::has_smooth),
             Bsdf::NormalMap(b) => b.nested.has_smooth(),
@@ -217,7 +267,9 @@ impl Bsdf {
             | Bsdf::RoughConductor(_)
             | Bsdf::RoughDielectric(_)
             | Bsdf::RoughPlastic(_)
-            | Bsdf::DiffuseTransmitter(_) => false,
+            | Bsdf::DiffuseTransmitter(_)
+            | Bsdf::Phong(_)
+            | Bsdf::Ward(_) => false,
             Bsdf::TwoSided(b) => b.sides.iter().any(Bsdf::has_delta),
             Bsdf::NormalMap(b) => b.nested.has_delta(),
             Bsdf::Blend(b) => b.bsdfs.iter().any(Bsdf::has_delta),
@@ -249,6 +301,8 @@ impl Bsdf {
             Bsdf::RoughConductor(b) => b.distribution.min_alpha(),
             Bsdf::RoughDielectric(b) => b.distribution.min_alpha(),
             Bsdf::RoughPlastic(b) => b.distribution.min_alpha(),
+            Bsdf::Phong(b) => b.roughness(),
+            Bsdf::Ward(b) => 0.5 * (b.alpha_u + b.alpha_v),
             Bsdf::TwoSided(b) => b.sides[0].min_roughness().min(b.sides[1].min_roughness()),
             Bsdf::NormalMap(b) => b.nested.min_roughness(),
             Bsdf::Blend(b) => b.bsdfs[0].min_roughness().min(b.bsdfs[1].min_roughness()),
@@ -283,37 +337,36 @@ impl Bsdf {
     /// incidence, clamped to [0, 1]; dielectrics report reflectance + transmittance).
     pub fn albedo(&self, ctx: &BsdfContext) -> Rgb {
         let a = match self {
-            Bsdf::Diffuse(b) => b.reflectance.eval(ctx.uv),
+            Bsdf::Diffuse(b) => b.reflectance.at(ctx),
             Bsdf::Conductor(b) => b.reflectance(ctx, 1.0),
             Bsdf::RoughConductor(b) => {
-                fresnel::fresnel_conductor(1.0, b.eta.eval(ctx.uv), b.k.eval(ctx.uv))
-                    * b.specular_reflectance.eval(ctx.uv)
+                fresnel::fresnel_conductor(1.0, b.eta.at(ctx), b.k.at(ctx))
+                    * b.specular_reflectance.at(ctx)
             }
             Bsdf::Dielectric(b) => {
                 let f = fresnel::fresnel_dielectric(1.0, b.eta).f;
-                b.specular_reflectance.eval(ctx.uv) * f
-                    + b.specular_transmittance.eval(ctx.uv) * (1.0 - f)
+                b.specular_reflectance.at(ctx) * f + b.specular_transmittance.at(ctx) * (1.0 - f)
             }
             Bsdf::RoughDielectric(b) => {
                 let f = fresnel::fresnel_dielectric(1.0, b.eta).f;
-                b.specular_reflectance.eval(ctx.uv) * f
-                    + b.specular_transmittance.eval(ctx.uv) * (1.0 - f)
+                b.specular_reflectance.at(ctx) * f + b.specular_transmittance.at(ctx) * (1.0 - f)
             }
             Bsdf::ThinDielectric(b) => {
                 let r = b.slab_reflectance(1.0);
-                b.specular_reflectance.eval(ctx.uv) * r
-                    + b.specular_transmittance.eval(ctx.uv) * (1.0 - r)
+                b.specular_reflectance.at(ctx) * r + b.specular_transmittance.at(ctx) * (1.0 - r)
             }
-            Bsdf::Plastic(b) => b.diffuse_reflectance.eval(ctx.uv) + b.specular_albedo(ctx),
-            Bsdf::RoughPlastic(b) => b.diffuse_reflectance.eval(ctx.uv) + b.specular_albedo(ctx),
+            Bsdf::Plastic(b) => b.diffuse_reflectance.at(ctx) + b.specular_albedo(ctx),
+            Bsdf::RoughPlastic(b) => b.diffuse_reflectance.at(ctx) + b.specular_albedo(ctx),
             Bsdf::TwoSided(b) => b.sides[0].albedo(ctx),
             Bsdf::NormalMap(b) => b.nested.albedo(ctx),
             Bsdf::Blend(b) => {
-                let w = b.weight.eval_1(ctx.uv).clamp(0.0, 1.0);
+                let w = b.weight.at_1(ctx).clamp(0.0, 1.0);
                 b.bsdfs[0].albedo(ctx) * (1.0 - w) + b.bsdfs[1].albedo(ctx) * w
             }
             Bsdf::Mask(b) => b.nested.albedo(ctx) * b.opacity(ctx),
-            Bsdf::DiffuseTransmitter(b) => b.transmittance.eval(ctx.uv),
+            Bsdf::DiffuseTransmitter(b) => b.transmittance.at(ctx),
+            Bsdf::Phong(b) => b.diffuse_reflectance.at(ctx) + b.specular_reflectance.at(ctx),
+            Bsdf::Ward(b) => b.diffuse_reflectance.at(ctx) + b.specular_reflectance.at(ctx),
         };
         a.clamp(Rgb::ZERO, Rgb::ONE)
     }

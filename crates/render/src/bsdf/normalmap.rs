@@ -3,6 +3,7 @@
 //! Directions that fall on different sides of the true and the perturbed shading normals are masked
 //! out, so evaluation, sampling and pdf stay consistent (no energy from below the surface).
 
+use super::TextureAt;
 use super::{Bsdf, BsdfContext, BsdfSample};
 use crate::color::Rgb;
 use crate::frame::Frame;
@@ -22,7 +23,7 @@ impl NormalMap {
     /// The perturbed frame at `uv`, in the local (unperturbed) shading frame.
     #[inline]
     fn frame(&self, ctx: &BsdfContext) -> Frame {
-        let n = (self.normals.eval(ctx.uv) * 2.0 - Vec3::ONE).normalize_or_zero();
+        let n = (self.normals.at(ctx) * 2.0 - Vec3::ONE).normalize_or_zero();
         if n.z.abs() < 1e-6 || !n.is_finite() {
             return Frame::from_normal(Vec3::Z);
         }

@@ -3,6 +3,7 @@
 //! internal scattering between base and coating (`fdr_int`); one-sided.
 
 use super::fresnel::{fresnel_dielectric, fresnel_diffuse_reflectance, reflect};
+use super::TextureAt;
 use super::{is_positive, texture_mean, BsdfContext, BsdfSample};
 use crate::color::Rgb;
 use crate::texture::Texture;
@@ -63,7 +64,7 @@ impl Plastic {
 
     /// Diffuse reflectance after internal scattering.
     fn diffuse(&self, ctx: &BsdfContext) -> Rgb {
-        let d = self.diffuse_reflectance.eval(ctx.uv);
+        let d = self.diffuse_reflectance.at(ctx);
         if self.nonlinear {
             d / (Rgb::ONE - d * self.fdr_int)
         } else {
@@ -75,7 +76,7 @@ impl Plastic {
         let s = self
             .specular_reflectance
             .as_ref()
-            .map_or(Rgb::ONE, |t| t.eval(ctx.uv));
+            .map_or(Rgb::ONE, |t| t.at(ctx));
         s * fresnel_dielectric(1.0, self.eta).f
     }
 
@@ -113,7 +114,7 @@ impl Plastic {
             let s = self
                 .specular_reflectance
                 .as_ref()
-                .map_or(Rgb::ONE, |t| t.eval(ctx.uv));
+                .map_or(Rgb::ONE, |t| t.at(ctx));
             return Some(BsdfSample {
                 wo: reflect(wi),
                 pdf: prob_specular,

@@ -3,6 +3,7 @@
 
 use super::fresnel::{fresnel_conductor, reflect_about};
 use super::microfacet::Microfacet;
+use super::TextureAt;
 use super::{is_positive, BsdfContext, BsdfSample};
 use crate::color::Rgb;
 use crate::texture::Texture;
@@ -23,8 +24,8 @@ pub struct RoughConductor {
 
 impl RoughConductor {
     fn fresnel(&self, ctx: &BsdfContext, cos_theta: f32) -> Rgb {
-        fresnel_conductor(cos_theta, self.eta.eval(ctx.uv), self.k.eval(ctx.uv))
-            * self.specular_reflectance.eval(ctx.uv)
+        fresnel_conductor(cos_theta, self.eta.at(ctx), self.k.at(ctx))
+            * self.specular_reflectance.at(ctx)
     }
 
     pub(super) fn eval(&self, ctx: &BsdfContext, wi: Vec3, wo: Vec3) -> Rgb {

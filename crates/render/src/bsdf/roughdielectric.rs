@@ -4,6 +4,7 @@
 
 use super::fresnel::{fresnel_dielectric, reflect_about, refract_about};
 use super::microfacet::Microfacet;
+use super::TextureAt;
 use super::{is_positive, BsdfContext, BsdfSample};
 use crate::color::Rgb;
 use crate::texture::Texture;
@@ -78,14 +79,14 @@ impl RoughDielectric {
         let f = fresnel_dielectric(wi.dot(m), self.eta).f;
         let g = dist.g(wi, wo, m);
         if reflect {
-            self.specular_reflectance.eval(ctx.uv) * (f * d * g / (4.0 * wi.z.abs()))
+            self.specular_reflectance.at(ctx) * (f * d * g / (4.0 * wi.z.abs()))
         } else {
             let (im, om) = (wi.dot(m), wo.dot(m));
             let denom = im + eta * om;
             // Radiance transport: the 1/η² solid-angle compression.
             let scale = 1.0 / (eta * eta);
             let value = scale * (1.0 - f) * d * g * eta * eta * im * om / (wi.z * denom * denom);
-            self.specular_transmittance.eval(ctx.uv) * value.abs()
+            self.specular_transmittance.at(ctx) * value.abs()
         }
     }
 
@@ -137,7 +138,7 @@ impl RoughDielectric {
                 return None;
             }
             let pdf = m_pdf * fr.f / (4.0 * wo.dot(m)).abs();
-            (wo, pdf, self.specular_reflectance.eval(ctx.uv), 1.0)
+            (wo, pdf, self.specular_reflectance.at(ctx), 1.0)
         } else {
             let wo = refract_about(wi, m, fr.cos_theta_t, fr.eta_ti);
             if wo.z * ci >= 0.0 {
@@ -150,7 +151,7 @@ impl RoughDielectric {
             (
                 wo,
                 pdf,
-                self.specular_transmittance.eval(ctx.uv) * scale,
+                self.specular_transmittance.at(ctx) * scale,
                 fr.eta_it,
             )
         };

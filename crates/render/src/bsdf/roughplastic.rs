@@ -10,6 +10,7 @@
 
 use super::fresnel::{fresnel_dielectric, reflect_about, refract_about};
 use super::microfacet::{Microfacet, MicrofacetKind};
+use super::TextureAt;
 use super::{is_positive, texture_mean, BsdfContext, BsdfSample};
 use crate::color::Rgb;
 use crate::texture::Texture;
@@ -191,7 +192,7 @@ impl RoughPlastic {
         let s = self
             .specular_reflectance
             .as_ref()
-            .map_or(Rgb::ONE, |t| t.eval(ctx.uv));
+            .map_or(Rgb::ONE, |t| t.at(ctx));
         s * fresnel_dielectric(1.0, self.eta).f
     }
 
@@ -209,12 +210,12 @@ impl RoughPlastic {
             let s = self
                 .specular_reflectance
                 .as_ref()
-                .map_or(Rgb::ONE, |t| t.eval(ctx.uv));
+                .map_or(Rgb::ONE, |t| t.at(ctx));
             value = s * (f * d * g / (4.0 * wi.z));
         }
         let t_i = self.transmittance(wi.z);
         let t_o = self.transmittance(wo.z);
-        let diff = self.diffuse_reflectance.eval(ctx.uv);
+        let diff = self.diffuse_reflectance.at(ctx);
         let diff = if self.nonlinear {
             diff / (Rgb::ONE - diff * self.internal_reflectance)
         } else {

@@ -2,6 +2,7 @@
 //! including inter-reflections, R' = R + T²R/(1 − R²), and straight-through transmission wo = −wi.
 
 use super::fresnel::{fresnel_dielectric, reflect};
+use super::TextureAt;
 use super::{BsdfContext, BsdfSample};
 use crate::texture::Texture;
 use glam::{Vec2, Vec3};
@@ -44,7 +45,7 @@ impl ThinDielectric {
             Some(BsdfSample {
                 wo: reflect(wi),
                 pdf: r,
-                weight: self.specular_reflectance.eval(ctx.uv),
+                weight: self.specular_reflectance.at(ctx),
                 eta: 1.0,
                 delta: true,
             })
@@ -52,7 +53,7 @@ impl ThinDielectric {
             Some(BsdfSample {
                 wo: -wi,
                 pdf: 1.0 - r,
-                weight: self.specular_transmittance.eval(ctx.uv),
+                weight: self.specular_transmittance.at(ctx),
                 eta: 1.0,
                 delta: true,
             })

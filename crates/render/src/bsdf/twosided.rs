@@ -9,8 +9,10 @@ use glam::{Vec2, Vec3};
 /// Front and back BSDFs (the same model twice when only one was given).
 #[derive(Clone, Debug)]
 pub struct TwoSided {
-    /// `[front, back]`; both are reflection-only models.
-    pub sides: Box<[Bsdf; 2]>,
+    /// `[front, back]`; both are reflection-only models. Shared, so that cloning is cheap: a `twosided`
+    /// with one nested BSDF holds it twice, and nested `twosided`s would otherwise double the tree at
+    /// every level (60 levels took all memory).
+    pub sides: std::sync::Arc<[Bsdf; 2]>,
 }
 
 #[inline]

@@ -1,8 +1,8 @@
 //! Sensors: the perspective pinhole camera and the thin-lens camera of Mitsuba 3.
 //!
-//! Conventions (Mitsuba 3, see the design notes): the camera looks along local +Z, local +Y is up and
-//! local +X is the image's *left* (the `lookat` frame has left = up × dir), so image column u grows
-//! towards world dir × up and row 0 is the top. Rays start on the near clip plane and stop at the far
+//! Conventions (Mitsuba 3, see `docs/design/mitsuba-conventions.md`): the camera looks along local +Z,
+//! local +Y is up and local +X is the image's *left* (the `lookat` frame has left = up × dir), so image
+//! column u grows towards world dir × up and row 0 is the top. Rays start on the near clip plane and stop at the far
 //! clip plane. Film positions are continuous pixel coordinates of the full film, (0, 0) being the
 //! top-left corner of the top-left pixel (pixel centres at +0.5); a crop window does not change them.
 
@@ -16,7 +16,7 @@ pub use thin_lens::ThinLens;
 
 use crate::desc::ObjectDesc;
 use crate::error::SceneResult;
-use crate::ray::Ray;
+use crate::ray::{CameraRay, Ray, RayDifferential};
 use glam::{Mat4, UVec2, Vec2, Vec3};
 
 /// A camera that turns film positions (and lens samples) into world-space primary rays.
@@ -119,6 +119,29 @@ impl Camera {
             }
             Camera::ThinLens(t) => t.generate_ray(film_pos, aperture_u),
         }
+    }
+
+    /// [`Camera::generate_ray`] with the differentials of a one-pixel step along x and y (the offset
+    /// rays share the lens sample), for texture filtering at the first hit.
+    #[inline]
+    pub fn generate_ray_differential(&self, film_pos: Vec2, aperture_u: Vec2) -> CameraRay {
+        let ray = self.generate_ray(film_pos, aperture_u);
+        let (origin, dx, dy) = match self {
+            Camera::Perspective(p) => (
+                p.position(),
+                p.dir_to_world(p.film_to_local_plane(film_pos + Vec2::X)),
+                p.dir_to_world(p.film_to_local_plane(film_pos + Vec2::Y)),
+            ),
+            Camera::ThinLens(t) => t.differential_rays(film_pos, aperture_u),
+        };
+        let (dx, dy) = (dx.normalize(), dy.normalize());
+        let differential = (dx.is_finite() && dy.is_finite()).then_some(RayDifferential {
+            rx_o: origin,
+            rx_d: dx,
+            ry_o: origin,
+            ry_d: dy,
+        });
+        CameraRay { ray, differential }
     }
 
     /// The camera position (the lens centre) in world space.

@@ -54,4 +54,19 @@ impl ThinLens {
         let o = p.to_world().transform_point3(aperture_p) + d_world * near_t;
         Ray::segment(o, d_world, far_t - near_t)
     }
+
+    /// The world-space lens point of `aperture_u` and the (unnormalised) world directions from it
+    /// towards the focus-plane points of the film positions one pixel right of and below `film_pos`.
+    pub(super) fn differential_rays(&self, film_pos: Vec2, aperture_u: Vec2) -> (Vec3, Vec3, Vec3) {
+        let p = &self.projection;
+        let lens = self.aperture_radius * square_to_uniform_disk_concentric(aperture_u);
+        let aperture_p = Vec3::new(lens.x, lens.y, 0.0);
+        let towards =
+            |f: Vec2| p.dir_to_world(p.film_to_local_plane(f) * self.focus_distance - aperture_p);
+        (
+            p.to_world().transform_point3(aperture_p),
+            towards(film_pos + Vec2::X),
+            towards(film_pos + Vec2::Y),
+        )
+    }
 }

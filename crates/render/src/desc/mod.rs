@@ -5,6 +5,7 @@
 //! resolved (shared `Arc`s) and whose `<include>`s are inlined. The builder then turns it into render
 //! objects. Every object and property carries the file and line it came from, for error messages.
 
+mod legacy;
 pub mod xml;
 
 use crate::error::{SceneError, SceneResult, SourceLoc};
@@ -265,9 +266,24 @@ impl ObjectDesc {
 
     /// A colour property given as rgb, srgb, a uniform spectrum or a float, or `default`.
     /// Sampled spectra and black bodies are converted to linear RGB (see [`spectrum_to_rgb`]).
+    /// A nested plugin bound to `name` (a `<texture>` or `<spectrum type="..">`) is an error here: only
+    /// BSDF parameters take textures.
     pub fn rgb_or(&self, name: &str, default: Vec3) -> SceneResult<Vec3> {
         match self.prop(name) {
-            None => Ok(default),
+            None => match self.named_child(name) {
+                Some(c) => Err(SceneError::at(
+                    &c.object.loc,
+                    format!(
+                        "parameter '{name}' of {} '{}' cannot be a nested <{} type=\"{}\"> (give a \
+                         constant <rgb>, <spectrum value=\"..\"> or <float>)",
+                        self.class.tag(),
+                        self.plugin,
+                        c.object.class.tag(),
+                        c.object.plugin
+                    ),
+                )),
+                None => Ok(default),
+            },
             Some(p) => match &p.value {
                 PropValue::Rgb(v) => Ok(*v),
                 PropValue::Float(v) => Ok(Vec3::splat(*v as f32)),

@@ -9,10 +9,11 @@
 //! → a `to_uv` transform). Relative `filename`s that do not exist beside the XML that wrote them are
 //! looked up, as Mitsuba's file resolver does, beside the main scene file and in `<path>` folders.
 
+use super::legacy::upgrade_legacy;
 use super::{ChildDesc, ObjectClass, ObjectDesc, PropValue, Property, SceneDesc, SpectrumDesc};
 use crate::color::srgb_to_linear;
 use crate::error::{SceneError, SceneResult, SourceLoc};
-use glam::{DMat3, DMat4, DVec2, DVec3, Vec3};
+use glam::{DMat3, DMat4, DVec3, Vec3};
 use roxmltree::{Document, Node, NodeType, ParsingOptions};
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
@@ -20,6 +21,11 @@ use std::sync::Arc;
 
 /// Deepest chain of nested `<include>`s accepted (Mitsuba 3's limit is 15, too).
 const MAX_INCLUDE_DEPTH: usize = 15;
+
+/// Deepest nesting of plugin elements accepted (a `<bsdf>` in a `<bsdf>` in a `<shape>` is 3 deep).
+/// Real scenes nest a handful of levels; the limit keeps the reader's and the scene builder's recursion
+/// far from the stack's end, so a pathological file is an error at its line rather than a crash.
+pub const MAX_NESTING_DEPTH: usize = 64;
 
 /// Parses a Mitsuba scene file into the neutral description. `params` are `-D name=value` overrides.
 pub fn parse_scene_file(path: &Path, params: &[(String, String)]) -> SceneResult<SceneDesc> {
@@ -224,11 +230,11 @@ struct Variable {
 
 /// The properties and nested plugins being collected for one element.
 #[derive(Default)]
-struct Body {
-    props: Vec<Property>,
-    children: Vec<ChildDesc>,
+pub(super) struct Body {
+    pub(super) props: Vec<Property>,
+    pub(super) children: Vec<ChildDesc>,
     /// Where each name was first bound (properties and named children share one namespace).
-    names: HashMap<String, SourceLoc>,
+    pub(super) names: HashMap<String, SourceLoc>,
 }
 
 impl Body {
@@ -243,7 +249,7 @@ impl Body {
         Ok(())
     }
 
-    fn add_prop(&mut self, prop: Property) -> SceneResult<()> {
+    pub(super) fn add_prop(&mut self, prop: Property) -> SceneResult<()> {
         self.bind_name(&prop.name, &prop.loc)?;
         self.props.push(prop);
         Ok(())
@@ -268,6 +274,8 @@ struct Reader {
     search_paths: Vec<PathBuf>,
     /// Canonical paths of the files being read, outermost first.
     include_stack: Vec<PathBuf>,
+    /// Plugin elements open around the one being read (see [`MAX_NESTING_DEPTH`]).
+    depth: usize,
 }
 
 impl Reader {
@@ -291,6 +299,7 @@ impl Reader {
             ids: HashMap::new(),
             search_paths: Vec::new(),
             include_stack: Vec::new(),
+            depth: 0,
         }
     }
 
@@ -532,10 +541,19 @@ impl Reader {
             return Err(ctx.error(node, format!("empty 'id' in <{tag}>")));
         }
         let name = self.attr(node, "name", ctx)?.map(|n| to_snake_case(&n));
+        if self.depth >= MAX_NESTING_DEPTH {
+            return Err(ctx.error(
+                node,
+                format!("<{tag}> is nested more than {MAX_NESTING_DEPTH} plugins deep"),
+            ));
+        }
         let mut body = Body::default();
-        self.parse_children(node, ctx, &mut body, false)?;
+        self.depth += 1;
+        let children = self.parse_children(node, ctx, &mut body, false);
+        self.depth -= 1;
+        children?;
         if ctx.legacy {
-            upgrade_legacy(&class, &plugin, &mut body)?;
+            upgrade_legacy(&class, &plugin, &loc, &mut body)?;
         }
         let object = Arc::new(ObjectDesc {
             class,
@@ -1052,60 +1070,4 @@ fn check_no_text(node: Node, ctx: &FileCtx) -> SceneResult<()> {
         let shown: String = text.chars().take(40).collect();
         Err(ctx.error(node, format!("unexpected text \"{shown}\"")))
     }
-}
-
-/// Mitsuba 3's in-memory upgrade of pre-2.0 files, beyond the renaming done for every file: a diffuse
-/// BSDF's `diffuse_reflectance` is its `reflectance`, and `uoffset`/`voffset`/`uscale`/`vscale` become
-/// a `to_uv` transform (translate, then scale).
-fn upgrade_legacy(class: &ObjectClass, plugin: &str, body: &mut Body) -> SceneResult<()> {
-    if *class == ObjectClass::Bsdf && plugin == "diffuse" && !body.names.contains_key("reflectance")
-    {
-        if let Some(loc) = body.names.remove("diffuse_reflectance") {
-            body.names.insert("reflectance".into(), loc);
-            for p in body
-                .props
-                .iter_mut()
-                .filter(|p| p.name == "diffuse_reflectance")
-            {
-                p.name = "reflectance".into();
-            }
-            for c in body.children.iter_mut() {
-                if c.name.as_deref() == Some("diffuse_reflectance") {
-                    c.name = Some("reflectance".into());
-                }
-            }
-        }
-    }
-
-    let mut offset = DVec2::ZERO;
-    let mut scale = DVec2::ONE;
-    let mut first_loc = None;
-    body.props.retain(|p| {
-        let v = match p.value {
-            PropValue::Float(v) => v,
-            PropValue::Integer(v) => v as f64,
-            _ => return true,
-        };
-        match p.name.as_str() {
-            "uoffset" => offset.x = v,
-            "voffset" => offset.y = v,
-            "uscale" => scale.x = v,
-            "vscale" => scale.y = v,
-            _ => return true,
-        }
-        first_loc.get_or_insert_with(|| p.loc.clone());
-        false
-    });
-    if let Some(loc) = first_loc {
-        for n in ["uoffset", "voffset", "uscale", "vscale"] {
-            body.names.remove(n);
-        }
-        let m = DMat4::from_scale(scale.extend(1.0)) * DMat4::from_translation(offset.extend(0.0));
-        body.add_prop(Property {
-            name: "to_uv".into(),
-            value: PropValue::Transform(m.as_mat4()),
-            loc,
-        })?;
-    }
-    Ok(())
 }

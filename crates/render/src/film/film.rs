@@ -49,25 +49,69 @@ impl Default for FilmSpec {
     }
 }
 
+/// Longest film side accepted: 2^16 keeps pixel indices and f32 film coordinates exact.
+pub const MAX_FILM_SIDE: u32 = 1 << 16;
+
 impl FilmSpec {
     /// The full film size.
     pub fn size(&self) -> UVec2 {
         UVec2::new(self.width, self.height)
     }
+
+    /// The film at another size: `width` × `height`, or `width` with the film's aspect ratio when
+    /// `height` is `None`. A crop window scales with the film (a whole-film window stays whole).
+    pub fn resized(&self, width: u32, height: Option<u32>) -> Result<FilmSpec, String> {
+        let height = height.unwrap_or_else(|| {
+            ((width as f64 * self.height as f64 / self.width as f64).round() as u32).max(1)
+        });
+        for (name, v) in [("width", width), ("height", height)] {
+            if v == 0 || v > MAX_FILM_SIDE {
+                return Err(format!(
+                    "film {name} {v} is outside 1..={MAX_FILM_SIDE} (from the requested size \
+                     {width}x{height})"
+                ));
+            }
+        }
+        let new = UVec2::new(width, height);
+        let (crop_offset, crop_size) =
+            if self.crop_offset == UVec2::ZERO && self.crop_size == self.size() {
+                (UVec2::ZERO, new)
+            } else {
+                let scale = new.as_dvec2() / self.size().as_dvec2();
+                let offset = (self.crop_offset.as_dvec2() * scale)
+                    .floor()
+                    .as_uvec2()
+                    .min(new - UVec2::ONE);
+                let size = (self.crop_size.as_dvec2() * scale)
+                    .round()
+                    .as_uvec2()
+                    .max(UVec2::ONE)
+                    .min(new - offset);
+                (offset, size)
+            };
+        Ok(FilmSpec {
+            width,
+            height,
+            crop_offset,
+            crop_size,
+            ..self.clone()
+        })
+    }
 }
 
-/// Reads a `<film>` (None gives Mitsuba's default film). `hdrfilm` is fully supported; `ldrfilm` is
-/// accepted with the same parameters and rendered the same way (focal always writes linear EXR plus an
-/// optional tonemapped PNG, so its tonemapping parameters are ignored). Other film plugins are errors.
+/// Reads a `<film>` (None gives Mitsuba's default film). `hdrfilm` is fully supported; `ldrfilm` and
+/// Mitsuba 0.6's `tiledhdrfilm` are accepted with the same parameters and rendered the same way (focal
+/// always writes linear EXR plus an optional tonemapped PNG, so tonemapping parameters are ignored).
+/// Other film plugins are errors.
 /// Reads `width`/`height` (768×576), the `rfilter` child (Gaussian σ = 0.5), `pixel_format` (rgb or
 /// rgba), and `crop_offset_x/y`, `crop_width/height` (default: the whole film).
 pub fn film_from_desc(film: Option<&ObjectDesc>) -> SceneResult<FilmSpec> {
     let Some(d) = film else {
         return Ok(FilmSpec::default());
     };
-    if !matches!(d.plugin.as_str(), "hdrfilm" | "ldrfilm") {
+    if !matches!(d.plugin.as_str(), "hdrfilm" | "ldrfilm" | "tiledhdrfilm") {
         return Err(d.error(format!(
-            "unsupported film type '{}' (supported: hdrfilm, ldrfilm)",
+            "unsupported film type '{}' (supported: hdrfilm, ldrfilm, tiledhdrfilm)",
             d.plugin
         )));
     }
@@ -78,8 +122,7 @@ pub fn film_from_desc(film: Option<&ObjectDesc>) -> SceneResult<FilmSpec> {
         }
         Ok(v as u32)
     };
-    // 2^16 per side keeps pixel indices and f32 film coordinates exact.
-    const MAX_SIDE: i64 = 1 << 16;
+    const MAX_SIDE: i64 = MAX_FILM_SIDE as i64;
     let width = dim("width", 768, 1, MAX_SIDE)?;
     let height = dim("height", 576, 1, MAX_SIDE)?;
     let crop_offset = UVec2::new(
@@ -134,6 +177,11 @@ pub const AOV_LAYERS: [(&str, &[&str]); 3] = [
     ("normal", &["X", "Y", "Z"]),
     ("depth", &["Z"]),
 ];
+
+/// Name of the EXR layer holding a film's per-pixel filter weight Σw (channel `W`): with it, images of
+/// disjoint sample sets of one render (its shards) merge into exactly the image of all their samples,
+/// Σ Iᵢ·Wᵢ / Σ Wᵢ, whatever the reconstruction filter.
+pub const FILTER_WEIGHT_LAYER: &str = "filter_weight";
 
 /// The film being rendered: accumulated Σw·L and Σw for every pixel of the crop window. Render workers
 /// fill their own [`ImageBlock`]s (see [`Film::create_block`]) and the caller merges them in a fixed
@@ -218,6 +266,23 @@ impl Film {
     pub fn clear(&mut self) {
         let offset = self.storage.offset();
         self.storage.reset(offset);
+    }
+
+    /// The per-pixel filter weight Σw of the crop window as a [`FILTER_WEIGHT_LAYER`] layer.
+    pub fn weight_layer(&self) -> ImageLayer {
+        let (w, h) = (self.width(), self.height());
+        let mut layer = ImageLayer::new(FILTER_WEIGHT_LAYER, &["W"], w, h);
+        let origin = self.storage.offset();
+        for y in 0..h {
+            for x in 0..w {
+                let c = self
+                    .storage
+                    .pixel_channels(origin + IVec2::new(x as i32, y as i32))
+                    .expect("film storage covers the crop window");
+                layer.data[(y * w + x) as usize] = c[3] as f32;
+            }
+        }
+        layer
     }
 
     /// The image: Σw·L / Σw per pixel, 0 where Σw = 0; AOVs likewise (normals are averaged, not

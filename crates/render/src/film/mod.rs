@@ -12,6 +12,8 @@ mod filter;
 mod image;
 
 pub use block::{AovSample, ImageBlock};
-pub use film::{film_from_desc, Film, FilmSpec, PixelFormat, AOV_LAYERS};
+pub use film::{
+    film_from_desc, Film, FilmSpec, PixelFormat, AOV_LAYERS, FILTER_WEIGHT_LAYER, MAX_FILM_SIDE,
+};
 pub use filter::{filter_from_desc, ReconstructionFilter, MAX_FILTER_RADIUS};
 pub use image::{Image, ImageLayer, ImageStats};

@@ -18,6 +18,8 @@ pub struct SurfaceInteraction {
     pub uv: Vec2,
     /// Index of the shape (scene-level) that was hit.
     pub shape: u32,
+    /// Triangle index within a mesh (0 for analytic shapes).
+    pub prim: u32,
 }
 
 impl SurfaceInteraction {

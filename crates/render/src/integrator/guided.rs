@@ -5,12 +5,12 @@
 
 use super::path_trace::{LightEvent, PathObserver, PathTrace, Strategy, TracedVertex};
 use super::{
-    next_event_estimate, power_heuristic, resolve_pass_through, FirstHitAovs, Integrator,
-    PassThroughRun, PathSettings,
+    bsdf_context, next_event_estimate, power_heuristic, resolve_pass_through, FirstHitAovs,
+    Integrator, PassThroughRun, PathSettings,
 };
 use crate::bsdf::{Bsdf, BsdfContext};
 use crate::color::Rgb;
-use crate::ray::{offset_ray_origin, Ray};
+use crate::ray::{offset_ray_origin, CameraRay, Ray};
 use crate::sampler::Sampler;
 use crate::scene::Scene;
 use focal_guiding::{
@@ -38,8 +38,8 @@ pub const STRAIGHT_THROUGH_COS: f32 = 0.985;
 /// path instead of the throughput: it terminates paths as fast as the path tracer does in expectation (the
 /// mean BSDF-sampling weight is the albedo), whatever the guide chose. Unguided paths (the first
 /// iteration, or a render that fell back to path tracing) have no guided prefixes to protect and use
-/// the throughput roulette instead: it puts the samples where the throughput is, and halves the
-/// Cornell box's relMSE at equal time compared with albedo roulette.
+/// the throughput roulette instead: it puts the samples where the throughput is
+/// (docs/experiments/2026-12-01-unguided-roulette.md).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 pub enum Roulette {
     /// No roulette (Rath et al.; set a `max_depth`).
@@ -95,7 +95,8 @@ pub struct GuidedSettings {
     /// (4 at α = 0.75) at probability 1 − α, so the second moment of a diffuse chain grows by that
     /// factor per vertex: the brightest samples of the camera obscura, the lens focus and the door gap
     /// were such chains of 5–10 vertices. Splitting averages their continuations instead (a weight
-    /// window as Vorba and Křivánek's, with the albedo product standing in for the learned adjoint).
+    /// window as Vorba and Křivánek's, with the albedo product standing in for the learned adjoint;
+    /// docs/experiments/2026-12-03-path-splitting.md).
     pub split: bool,
 }
 
@@ -235,7 +236,7 @@ impl Integrator for GuidedPathIntegrator<'_> {
     fn li(
         &self,
         scene: &Scene,
-        ray: Ray,
+        ray: &CameraRay,
         sampler: &mut Sampler,
         aovs: &mut FirstHitAovs,
         training: &mut Vec<TrainingSegment>,
@@ -250,7 +251,7 @@ impl GuidedPathIntegrator<'_> {
     pub fn li_traced(
         &self,
         scene: &Scene,
-        ray: Ray,
+        ray: &CameraRay,
         sampler: &mut Sampler,
         trace: &mut PathTrace,
     ) -> Rgb {
@@ -265,12 +266,13 @@ impl GuidedPathIntegrator<'_> {
     fn trace_path<O: PathObserver>(
         &self,
         scene: &Scene,
-        mut ray: Ray,
+        camera_ray: &CameraRay,
         sampler: &mut Sampler,
         aovs: &mut FirstHitAovs,
         training: &mut Vec<TrainingSegment>,
         observer: &mut O,
     ) -> Rgb {
+        let mut ray = camera_ray.ray;
         let s = &self.settings.path;
         if s.max_depth == 0 {
             return Rgb::ZERO;
@@ -346,7 +348,7 @@ impl GuidedPathIntegrator<'_> {
                         observer.light(depth, LightEvent::EmitterHit, emitted.element_sum() / 3.0);
                     }
                 }
-                let ctx = BsdfContext { uv: si.uv };
+                let ctx = bsdf_context(scene, &si, camera_ray.differential.as_ref(), depth == 0);
                 // A pass-through is no vertex: no guiding, no training vertex, no depth; the MIS state of
                 // the last vertex stays.
                 let Some(bsdf) = resolve_pass_through(
@@ -494,8 +496,8 @@ impl GuidedPathIntegrator<'_> {
                     // As the throughput, the albedo product carries the survivals so far: the next vertex
                     // then survives by its own albedo, and reaching depth k has the probability of the
                     // albedo product. Without it every later roulette divided by the whole product
-                    // again, and the boosts compounded (on the door gap 6 × 8.5 × 12 × 17 by the eighth
-                    // vertex, the source of all of its 20 brightest samples).
+                    // again, and the boosts compounded
+                    // (docs/experiments/2026-12-03-albedo-roulette-fix.md).
                     albedo /= q;
                 }
                 ray = Ray::new(offset_ray_origin(si.p, si.ng, step.wo_world), step.wo_world);

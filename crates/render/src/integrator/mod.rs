@@ -10,7 +10,7 @@ pub use path::{PathIntegrator, PathSettings};
 use crate::bsdf::{Bsdf, BsdfContext};
 use crate::color::Rgb;
 use crate::geometry::SurfaceInteraction;
-use crate::ray::{offset_ray_origin, Ray};
+use crate::ray::{offset_ray_origin, CameraRay, Ray};
 use crate::sampler::Sampler;
 use crate::scene::{Scene, MAX_PASS_THROUGH};
 use focal_guiding::TrainingSegment;
@@ -30,15 +30,33 @@ pub struct FirstHitAovs {
 /// Estimates the radiance arriving along camera rays.
 pub trait Integrator: Send + Sync {
     /// One-sample estimate of the radiance along `ray`; fills `aovs` at the first hit. A training
-    /// integrator appends the path's guiding segments to `training` (others leave it alone).
+    /// integrator appends the path's guiding segments to `training` (others leave it alone). The ray's
+    /// differential, if any, gives MIP-mapped textures their footprint at the first hit; later
+    /// bounces read the finest level (as Mitsuba 0.6).
     fn li(
         &self,
         scene: &Scene,
-        ray: Ray,
+        ray: &CameraRay,
         sampler: &mut Sampler,
         aovs: &mut FirstHitAovs,
         training: &mut Vec<TrainingSegment>,
     ) -> Rgb;
+}
+
+/// The BSDF query at a hit: its uv and, while the path is still on its camera ray (`first_hit`, also
+/// after pass-throughs, which keep the ray's direction), the pixel footprint of `differential`.
+#[inline]
+pub(crate) fn bsdf_context(
+    scene: &Scene,
+    si: &SurfaceInteraction,
+    differential: Option<&crate::ray::RayDifferential>,
+    first_hit: bool,
+) -> BsdfContext {
+    let mut ctx = BsdfContext::at_uv(si.uv);
+    if let (true, Some(d)) = (first_hit, differential) {
+        ctx.footprint = scene.uv_footprint(si, d);
+    }
+    ctx
 }
 
 /// The power heuristic (β = 2) weight of a strategy with density `a` against one with density `b`.

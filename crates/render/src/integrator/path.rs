@@ -1,12 +1,11 @@
 //! Unidirectional path tracing with next-event estimation and MIS (Mitsuba `path`).
 
 use super::{
-    next_event_estimate, power_heuristic, resolve_pass_through, FirstHitAovs, Integrator,
-    PassThroughRun,
+    bsdf_context, next_event_estimate, power_heuristic, resolve_pass_through, FirstHitAovs,
+    Integrator, PassThroughRun,
 };
-use crate::bsdf::BsdfContext;
 use crate::color::Rgb;
-use crate::ray::{offset_ray_origin, Ray};
+use crate::ray::{offset_ray_origin, CameraRay, Ray};
 use crate::sampler::Sampler;
 use crate::scene::Scene;
 use focal_guiding::TrainingSegment;
@@ -14,8 +13,9 @@ use focal_guiding::TrainingSegment;
 /// Settings of the path integrator, with Mitsuba's meanings.
 #[derive(Clone, Copy, Debug, serde::Serialize, serde::Deserialize)]
 pub struct PathSettings {
-    /// Longest path in segments from the camera (`u32::MAX` = unlimited, Mitsuba's -1); 1 = directly visible
-    /// emitters only, 2 = direct lighting.
+    /// Longest path in segments from the camera (`u32::MAX` = unlimited, Mitsuba's -1, which is how it
+    /// is written); 1 = directly visible emitters only, 2 = direct lighting.
+    #[serde(with = "unlimited_as_minus_one")]
     pub max_depth: u32,
     /// Depth (1 = first hit) from which Russian roulette applies (Mitsuba's `rr_depth`, default 5).
     pub rr_depth: u32,
@@ -36,6 +36,26 @@ impl Default for PathSettings {
     }
 }
 
+/// `max_depth` in files as Mitsuba writes it: -1 for unlimited (`u32::MAX`).
+mod unlimited_as_minus_one {
+    use serde::{Deserialize, Deserializer, Serializer};
+
+    pub fn serialize<S: Serializer>(depth: &u32, s: S) -> Result<S::Ok, S::Error> {
+        if *depth == u32::MAX {
+            s.serialize_i64(-1)
+        } else {
+            s.serialize_u32(*depth)
+        }
+    }
+
+    pub fn deserialize<'de, D: Deserializer<'de>>(d: D) -> Result<u32, D::Error> {
+        match i64::deserialize(d)? {
+            -1 => Ok(u32::MAX),
+            v => u32::try_from(v).map_err(serde::de::Error::custom),
+        }
+    }
+}
+
 /// The path tracer every guiding method is compared against.
 #[derive(Clone, Debug, Default)]
 pub struct PathIntegrator {
@@ -47,7 +67,7 @@ impl Integrator for PathIntegrator {
     fn li(
         &self,
         scene: &Scene,
-        mut ray: Ray,
+        camera_ray: &CameraRay,
         sampler: &mut Sampler,
         aovs: &mut FirstHitAovs,
         _training: &mut Vec<TrainingSegment>,
@@ -56,6 +76,7 @@ impl Integrator for PathIntegrator {
         if s.max_depth == 0 {
             return Rgb::ZERO;
         }
+        let mut ray = camera_ray.ray;
         let mut result = Rgb::ZERO;
         let mut throughput = Rgb::ONE;
         let mut eta = 1.0f32;
@@ -107,7 +128,7 @@ impl Integrator for PathIntegrator {
                 }
             }
             let si = si.unwrap();
-            let ctx = BsdfContext { uv: si.uv };
+            let ctx = bsdf_context(scene, &si, camera_ray.differential.as_ref(), depth == 0);
             // A pass-through is no vertex: the MIS state of the last vertex stays, and so does the depth
             // (emission behind a mask is still reached by that vertex's direction).
             let Some(bsdf) = resolve_pass_through(
@@ -168,5 +189,28 @@ impl Integrator for PathIntegrator {
             ray = Ray::new(offset_ray_origin(si.p, si.ng, wo_world), wo_world);
         }
         result
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn unlimited_depth_is_written_as_minus_one() {
+        let v = serde_json::to_value(PathSettings::default()).unwrap();
+        assert_eq!(v["max_depth"], -1);
+        let back: PathSettings = serde_json::from_value(v).unwrap();
+        assert_eq!(back.max_depth, u32::MAX);
+        let five = PathSettings {
+            max_depth: 5,
+            ..PathSettings::default()
+        };
+        let v = serde_json::to_value(five).unwrap();
+        assert_eq!(v["max_depth"], 5);
+        assert_eq!(
+            serde_json::from_value::<PathSettings>(v).unwrap().max_depth,
+            5
+        );
     }
 }

@@ -116,7 +116,7 @@ pub(super) fn finish(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::testing::shared_dir;
+    use crate::testing::test_data_dir;
     use std::path::PathBuf;
 
     fn loc() -> SourceLoc {
@@ -137,7 +137,7 @@ mod tests {
 
     #[test]
     fn reference_meshes_load_with_the_right_counts() {
-        let dir = shared_dir().join("references/scenes");
+        let dir = test_data_dir().join("references/scenes");
         let f = load_obj(&dir.join("letter_f.obj"), &loc(), true).unwrap();
         assert_eq!(f.indices.len(), 36);
         assert_eq!(f.positions.len(), 72);

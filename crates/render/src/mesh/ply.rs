@@ -116,7 +116,7 @@ fn index_list(e: &DefaultElement, key: &str) -> Option<Vec<i64>> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::testing::shared_dir;
+    use crate::testing::test_data_dir;
     use std::path::PathBuf;
 
     fn loc() -> SourceLoc {
@@ -141,7 +141,11 @@ mod tests {
 
     #[test]
     fn binary_reference_pyramid_loads() {
-        let m = load_ply(&shared_dir().join("references/scenes/pyramid.ply"), &loc()).unwrap();
+        let m = load_ply(
+            &test_data_dir().join("references/scenes/pyramid.ply"),
+            &loc(),
+        )
+        .unwrap();
         assert_eq!(m.positions.len(), 16);
         assert_eq!(m.indices.len(), 6);
         assert!(m.normals.is_none() && m.uvs.is_none());

@@ -12,21 +12,22 @@
 //! missed the light gets wrong: its few samples per pixel miss the rare bright paths in both halves, so
 //! it looks quiet exactly when its image is too dark, and plain inverse-variance weights hand it the
 //! weight of the iterations that found the light. So the weights do not trust an iteration to be more
-//! efficient than the later ones: each iteration's inefficiency (variance × render time) is raised to
-//! the largest of the later iterations' ([`robust_inverse_variance_weights`]), since the guide only
-//! improves from one iteration to the next. An iteration can then not weigh more, relative to the
-//! final one, than its share of the render time: the combination falls back to time weights, which
-//! are unbiased, wherever the variance estimates would have favoured an early one. Iterations whose
-//! (raised) inefficiency is above [`MAX_RELATIVE_INEFFICIENCY`] times the final iteration's are left
-//! out. An iteration without a variance estimate (under two samples per pixel, or all black) counts as
-//! the least efficient one. The guided renderer leaves the unguided first iteration out whenever a
-//! guided one exists. The weights come from the same samples, so the combination is consistent rather
-//! than exactly unbiased; `Combine::Last` is exactly unbiased.
+//! efficient than the final one: each iteration's inefficiency (variance × cost) is raised to
+//! at least the final iteration's ([`robust_inverse_variance_weights`]), since the guide only improves
+//! from one iteration to the next and the final iteration, the largest, has the most reliable estimate.
+//! An iteration can then not weigh more, relative to the final one, than its share of the cost (the
+//! samples): the combination falls back to sample-count weights, which are unbiased, wherever the
+//! variance estimates would have favoured an earlier one. Iterations whose (raised) inefficiency is
+//! above [`MAX_RELATIVE_INEFFICIENCY`] times the final iteration's are left out. An iteration without a
+//! variance estimate (under two samples per pixel, or all black) counts as the least efficient one.
+//! The guided renderer leaves the unguided first iteration out whenever a guided one exists. The
+//! weights come from the same samples, so the combination is consistent rather than exactly unbiased;
+//! `Combine::Last` is exactly unbiased.
 
 use crate::film::Image;
 
-/// Iterations whose inefficiency (relative variance × render time, after the raise to the later ones')
-/// is above this many times the final iteration's are left out: their guide was too poor to matter.
+/// Iterations whose inefficiency (relative variance × render time) is above this many times the final
+/// iteration's are left out: their guide was too poor to matter.
 pub const MAX_RELATIVE_INEFFICIENCY: f64 = 20.0;
 /// The ε of the relative variance, relative to the pooled image's squared mean brightness (as the
 /// benchmark's exposure-normalised relMSE).
@@ -130,10 +131,12 @@ pub fn per_sample_relative_variance(
     v.is_finite().then_some(v)
 }
 
-/// The combination weights of `iterations` (in render order, each with its render time in `seconds`),
-/// normalised to sum to 1 (0 for iterations left out): inverse variance with each iteration's
-/// inefficiency raised to the later ones' (see the module documentation).
-pub fn robust_inverse_variance_weights(iterations: &[IterationImage], seconds: &[f64]) -> Vec<f64> {
+/// The combination weights of `iterations` (in render order, each with its `cost`), normalised to sum
+/// to 1 (0 for iterations left out): inverse variance with each iteration's inefficiency (relative
+/// variance × cost) raised to at least the final one's (see the module documentation). The renderer
+/// passes sample counts as the cost, not measured seconds, so that a fixed seed gives the same image
+/// whatever the machine's load and thread count.
+pub fn robust_inverse_variance_weights(iterations: &[IterationImage], cost: &[f64]) -> Vec<f64> {
     let n = iterations.len();
     let mut weights = vec![0.0; n];
     if n == 0 {
@@ -141,10 +144,10 @@ pub fn robust_inverse_variance_weights(iterations: &[IterationImage], seconds: &
     }
     let pooled = pooled_image(iterations);
     let variances = relative_variances(iterations, &pooled);
-    // Inefficiency: relative variance × time. Unknown (no halves, or zero) counts as the worst known.
+    // Inefficiency: relative variance × cost. Unknown (no halves, or zero) counts as the worst known.
     let known: Vec<Option<f64>> = variances
         .iter()
-        .zip(seconds)
+        .zip(cost)
         .map(|(v, &t)| {
             v.map(|v| v * t.max(1e-9))
                 .filter(|e| *e > 0.0 && e.is_finite())
@@ -152,10 +155,10 @@ pub fn robust_inverse_variance_weights(iterations: &[IterationImage], seconds: &
         .collect();
     let worst = known.iter().flatten().cloned().fold(0.0f64, f64::max);
     if !(worst > 0.0) {
-        // No iteration has a variance estimate: weight them by their render time.
-        let total: f64 = seconds.iter().map(|t| t.max(0.0)).sum();
+        // No iteration has a variance estimate: weight them by their cost.
+        let total: f64 = cost.iter().map(|t| t.max(0.0)).sum();
         if total > 0.0 {
-            for (w, t) in weights.iter_mut().zip(seconds) {
+            for (w, t) in weights.iter_mut().zip(cost) {
                 *w = t.max(0.0) / total;
             }
         } else {
@@ -163,16 +166,11 @@ pub fn robust_inverse_variance_weights(iterations: &[IterationImage], seconds: &
         }
         return weights;
     }
-    let mut raised = vec![0.0f64; n];
-    let mut later = 0.0f64;
-    for i in (0..n).rev() {
-        later = later.max(known[i].unwrap_or(worst));
-        raised[i] = later;
-    }
-    let last = raised[n - 1];
+    let last = known[n - 1].unwrap_or(worst);
+    let raised: Vec<f64> = known.iter().map(|e| e.unwrap_or(worst).max(last)).collect();
     for i in 0..n {
         if raised[i] <= MAX_RELATIVE_INEFFICIENCY * last {
-            weights[i] = seconds[i].max(1e-9) / raised[i];
+            weights[i] = cost[i].max(1e-9) / raised[i];
         }
     }
     let total: f64 = weights.iter().sum();

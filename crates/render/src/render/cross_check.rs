@@ -17,10 +17,12 @@
 //! Both estimates are means over pixels, and either can rest on a handful of them: a few fireflies (a
 //! guided sample that found the bright path in a dim room, or an unguided one), or nothing at all when
 //! neither image found any light. Such a comparison says nothing about which estimator is better, and
-//! an image that missed the light would win it. So each estimate carries the effective number of pixels
-//! it rests on, (Σ e_p)² / Σ e_p² over its per-pixel terms e_p, as a share of the image
-//! ([`CrossCheck::unguided_pixel_share`], [`CrossCheck::guided_pixel_share`]); the fallback trusts only
-//! comparisons where both are spread over many pixels.
+//! an image that missed the light would win it. Each estimate records the effective number of pixels it
+//! rests on, (Σ e_p)² / Σ e_p² over its per-pixel terms e_p, as a share of the image
+//! ([`CrossCheck::unguided_pixel_share`], [`CrossCheck::guided_pixel_share`]), for diagnosis only: the
+//! Cornell box's unguided estimate rests on as few pixels as a firefly-ridden interior's, so the share
+//! cannot gate the decision (docs/experiments/2026-12-07-decisions-missing-the-light.md). The fallback
+//! instead waits for its first decisive check and for the guide's second-moment gain (render::guided).
 
 use super::combine::{relative_epsilon, IterationImage};
 

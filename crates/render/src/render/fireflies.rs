@@ -92,7 +92,7 @@ pub fn find_fireflies(
                     for index in 0..settings.spp {
                         let (mut sampler, _, ray) =
                             camera_sample(camera, settings, pixel, w as u64, index);
-                        let l = integrator.li_traced(scene, ray, &mut sampler, &mut trace);
+                        let l = integrator.li_traced(scene, &ray, &mut sampler, &mut trace);
                         let l = if l.is_finite() { l } else { Default::default() };
                         let value = l.element_sum() as f64 / 3.0;
                         let score = (value - r).powi(2) / (r * r + epsilon);

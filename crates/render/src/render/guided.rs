@@ -39,11 +39,10 @@ pub const MAX_TRAINING_PASS_SAMPLES: u64 = 1 << 20;
 
 /// A time-budget render compares the guided iterations with the unguided first one ([`cross_check`])
 /// after every guided training iteration, but gives guiding up only from this check on (0-based): the
-/// first checks rest on a guide that has learned little and on images of two samples per pixel. On the
-/// glass caustic the guide found the caustic only in its eighth to tenth iteration in several seeds, and
-/// in a dim room an iteration that missed the light looks as quiet as the Cornell box; waiting costs a
-/// non-focal scene three guided iterations (a tenth of the default budget), whose images the fallback's
-/// combination keeps ([`fallback_weights`]).
+/// first checks rest on a guide that has learned little and on images of two samples per pixel, and in
+/// a dim room an iteration that missed the light looks as quiet as the Cornell box. Waiting costs a
+/// non-focal scene a few guided iterations, whose images the fallback's combination keeps
+/// ([`fallback_weights`]). Measured in docs/experiments/2026-12-07-decisions-missing-the-light.md.
 pub const FIRST_DECISIVE_CHECK: usize = 2;
 
 /// Guiding is given up at the first decisive check where its inefficiency (relative error × time) is
@@ -54,15 +53,14 @@ pub const FIRST_THRESHOLD: f64 = 1.0;
 pub const LATER_THRESHOLD: f64 = 2.0;
 /// The first decisive check's threshold where the guided vertices' pooled second-moment ratio
 /// ([`IterationStats::moments`], BSDF alone over the mixture) is below 1, i.e. where the guide adds
-/// local variance rather than finding what the BSDF misses (veach-mis: 0.77–0.93 in every guided
-/// iteration).
+/// local variance rather than finding what the BSDF misses (as on veach-mis).
 pub const FIRST_THRESHOLD_WITHOUT_MOMENT_GAIN: f64 = 0.5;
 
 /// Where the guided vertices' pooled second-moment ratio (BSDF alone over the mixture) is at least this,
 /// guiding is never given up: the guide finds light the BSDF finds rarely, and the image check is then
-/// at the mercy of whether the few samples behind it saw that light. The non-focal scenes' ratio stayed
-/// at most 1.37 (the Cornell box) and 0.93 (veach-mis); the glass caustic's jumps to 2–300 in the
-/// iterations after its guide found the caustic.
+/// at the mercy of whether the few samples behind it saw that light. The non-focal scenes stay below it
+/// and a focal scene's ratio jumps far above it once its guide finds the light
+/// (docs/experiments/2026-12-07-decisions-missing-the-light.md).
 pub const MOMENT_GAIN_TO_KEEP_GUIDING: f64 = 2.0;
 
 /// The threshold of the `check`-th fallback check (0-based) given the pooled second-moment ratio of the
@@ -242,7 +240,7 @@ pub fn sample_schedule(spp: u32, max_iterations: u32) -> (Vec<u32>, u32) {
 /// combination uses besides the final iteration's: by then the guide differs little from the final
 /// one. An earlier iteration's guide is worse, and its few samples per pixel hide how much worse (its
 /// rare bright paths are missing from both of its halves), so even the raised weights of
-/// [`robust_inverse_variance_weights`] would give it its share of the time.
+/// [`robust_inverse_variance_weights`] would give it its share of the samples.
 pub const STABLE_TRAINING_SHARE: f64 = 1.0 / 3.0;
 
 /// Which of the `rendered` iterations (in render order) the inverse-variance combination uses: the
@@ -274,15 +272,15 @@ pub fn combined_iterations(rendered: &[&IterationStats]) -> Vec<bool> {
 /// The combination weights of a render that gave guiding up (`images` and `rendered` in render order):
 /// the unguided iterations are one estimator (the path tracer), pooled by their samples and placed
 /// last, after the guided iterations that preceded the fallback; [`robust_inverse_variance_weights`]
-/// then weighs the guided ones by their variance, never above their share of the render time (the path
-/// tracer is the more efficient estimator here, or guiding would not have been given up). Their images
+/// then weighs the guided ones by their variance, never above their share of the samples next to the
+/// path tracer (the more efficient estimator here, or guiding would not have been given up). Their images
 /// are unbiased: keeping them makes the checks before a fallback cost less than their time.
 pub fn fallback_weights(images: &[IterationImage], rendered: &[&IterationStats]) -> Vec<f64> {
     let mut order: Vec<IterationImage> = Vec::new();
-    let mut seconds: Vec<f64> = Vec::new();
-    for (image, s) in images.iter().zip(rendered).filter(|(_, s)| s.guided) {
+    let mut cost: Vec<f64> = Vec::new();
+    for (image, _) in images.iter().zip(rendered).filter(|(_, s)| s.guided) {
         order.push(image.clone());
-        seconds.push(s.render_s);
+        cost.push(image.spp() as f64);
     }
     let unguided: Vec<(&IterationImage, &&IterationStats)> = images
         .iter()
@@ -292,9 +290,9 @@ pub fn fallback_weights(images: &[IterationImage], rendered: &[&IterationStats])
     let unguided_spp: f64 = unguided.iter().map(|(i, _)| i.spp() as f64).sum();
     if unguided_spp > 0.0 {
         order.push(pooled_halves(unguided.iter().map(|(i, _)| *i)));
-        seconds.push(unguided.iter().map(|(_, s)| s.render_s).sum());
+        cost.push(unguided_spp);
     }
-    let w = robust_inverse_variance_weights(&order, &seconds);
+    let w = robust_inverse_variance_weights(&order, &cost);
     let pool_weight = if unguided_spp > 0.0 {
         w[w.len() - 1]
     } else {
@@ -354,7 +352,9 @@ pub fn render_guided(
     progress: &(dyn Fn(Progress) + Sync),
 ) -> GuidedOutput {
     let start = Instant::now();
-    let halves = settings.combine == Combine::InverseVariance;
+    // A pretrained render is one iteration, which needs no variance estimate: one film keeps its image
+    // the plain ratio Σw·L / Σw, which shards of the render reproduce exactly when merged.
+    let halves = settings.combine == Combine::InverseVariance && !settings.pretrained;
     let pixels = spec.crop_size.x as u64 * spec.crop_size.y as u64;
     let max_pass_spp = (MAX_TRAINING_PASS_SAMPLES / pixels.max(1)).clamp(1, 32) as u32;
 
@@ -433,6 +433,10 @@ pub fn render_guided(
     for (index, plan) in plans.enumerate() {
         let index = index as u32;
         let training = index < training_iterations;
+        // Asked to stop: the iterations finished so far are combined as usual.
+        if settings.render.cancel.is_set() {
+            break;
+        }
         if training && (fell_back(&fallback) || index > 0 && is_past(&plan)) {
             continue;
         }
@@ -458,7 +462,7 @@ pub fn render_guided(
             _ => None,
         };
         let mut pass_spp = 1u32;
-        loop {
+        while !runner.cancelled() {
             let spp_left = max_total_spp.saturating_sub(total_spp + runner.spp_done());
             let count = match plan {
                 Plan::Spp(target) => pass_spp.min(target.saturating_sub(runner.spp_done())),
@@ -580,7 +584,8 @@ pub fn render_guided(
             }
         }
         // A render that has just given up guiding needs no more guide.
-        let update = match (&mut guide, samples, training && !fell_back(&fallback)) {
+        let learn = training && !fell_back(&fallback) && !runner.cancelled();
+        let update = match (&mut guide, samples, learn) {
             (Some(g), Some(samples), true) => {
                 let ctx = UpdateContext {
                     iteration: index,
@@ -606,14 +611,14 @@ pub fn render_guided(
         Combine::InverseVariance => {
             let rendered: Vec<&IterationStats> = stats.iter().filter(|s| s.spp > 0).collect();
             let eligible = combined_iterations(&rendered);
-            let (its, seconds): (Vec<IterationImage>, Vec<f64>) = images
+            // Sample counts as the cost (not seconds): the image must not depend on the machine's load.
+            let (its, cost): (Vec<IterationImage>, Vec<f64>) = images
                 .iter()
-                .zip(&rendered)
                 .zip(&eligible)
                 .filter(|(_, &e)| e)
-                .map(|((i, s), _)| (i.clone(), s.render_s))
+                .map(|(i, _)| (i.clone(), i.spp() as f64))
                 .unzip();
-            let w = robust_inverse_variance_weights(&its, &seconds);
+            let w = robust_inverse_variance_weights(&its, &cost);
             let mut it = w.into_iter();
             eligible
                 .iter()
@@ -757,5 +762,59 @@ mod tests {
         assert_eq!(pooled_moment_ratio(std::iter::empty()), None);
         let inf = [iteration([1.0, f64::INFINITY])];
         assert_eq!(pooled_moment_ratio(inf.iter()), None);
+    }
+
+    /// An iteration of `spp` samples in two halves of a 32x32 image of 0.5 with per-sample relative noise
+    /// `sigma`.
+    fn noisy_iteration(rng: &mut focal_testkit::TestRng, spp: u32, sigma: f64) -> IterationImage {
+        let half = |rng: &mut focal_testkit::TestRng| {
+            let mut img = Image::new(32, 32);
+            let s = sigma / ((spp / 2) as f64).sqrt();
+            for p in &mut img.rgb {
+                *p = [(0.5 * (1.0 + s * rng.next_normal())) as f32; 3];
+            }
+            img
+        };
+        IterationImage {
+            a: (half(rng), spp / 2),
+            b: (half(rng), spp / 2),
+        }
+    }
+
+    #[test]
+    fn after_a_fallback_the_guided_iterations_count_but_never_above_their_time_share() {
+        let mut rng = focal_testkit::TestRng::new(11);
+        let stat = |guided: bool, render_s: f64| IterationStats {
+            guided,
+            render_s,
+            ..iteration([0.0; 2])
+        };
+        // The unguided first iteration (1 s), three guided ones (1 s each, as efficient as the path
+        // tracer, or seemingly better), then the path tracer for the rest (7 s).
+        let images = vec![
+            noisy_iteration(&mut rng, 8, 0.4),
+            noisy_iteration(&mut rng, 8, 0.2),
+            noisy_iteration(&mut rng, 8, 0.4),
+            noisy_iteration(&mut rng, 8, 4.0),
+            noisy_iteration(&mut rng, 56, 0.4),
+        ];
+        let stats = [
+            stat(false, 1.0),
+            stat(true, 1.0),
+            stat(true, 1.0),
+            stat(true, 1.0),
+            stat(false, 7.0),
+        ];
+        let rendered: Vec<&IterationStats> = stats.iter().collect();
+        let w = fallback_weights(&images, &rendered);
+        assert!((w.iter().sum::<f64>() - 1.0).abs() < 1e-12, "{w:?}");
+        // The quiet guided iteration is raised to the path tracer's inefficiency: its time share among the
+        // kept iterations (1 s of 10), not more.
+        assert!(w[1] <= 1.0 / 9.0 + 0.02, "{w:?}");
+        assert!((w[2] - w[1]).abs() < 0.03, "{w:?}");
+        // 100 times the variance: left out.
+        assert_eq!(w[3], 0.0);
+        // The path tracer's iterations share their weight by their samples.
+        assert!((w[4] / w[0] - 7.0).abs() < 1e-9, "{w:?}");
     }
 }

@@ -4,17 +4,20 @@
 //! `p` and `i`), tiles are fixed, and tile blocks are merged into the film in tile order, so a fixed seed
 //! and sample count give a bit-identical image whatever the number of threads.
 
+pub mod cancel;
 pub mod combine;
 pub mod cross_check;
 pub mod fireflies;
 pub mod guide_ellipses;
 pub mod guide_view;
 pub mod guided;
+pub mod memory;
 pub mod merge;
 pub mod octree_slice;
 pub mod pixel_weights;
 pub mod reference;
 
+use self::cancel::CancelFlag;
 use crate::camera::Camera;
 use crate::film::{AovSample, Film, FilmSpec, Image, ImageBlock};
 use crate::integrator::{FirstHitAovs, Integrator};
@@ -44,6 +47,32 @@ pub struct RenderSettings {
     pub aovs: bool,
     /// Sample generator.
     pub sampler: SamplerKind,
+    /// Raised to stop at the next pass boundary (a pass under way is dropped; see [`cancel`]).
+    pub cancel: CancelFlag,
+    /// Index of the first sample of every pixel: a render draws the random streams of sample indices
+    /// `first_sample ..`, so the shards of one render (each `first_sample = i · spp`) draw disjoint
+    /// streams and together draw those of one render of all their samples.
+    pub first_sample: u32,
+    /// Add the film's filter weights to single-film images ([`crate::film::FILTER_WEIGHT_LAYER`]), so
+    /// that shards merge exactly.
+    pub filter_weights: bool,
+}
+
+impl Default for RenderSettings {
+    /// One sample per pixel, seed 0, all cores, independent samples, no AOVs.
+    fn default() -> Self {
+        RenderSettings {
+            spp: 1,
+            time_limit: None,
+            seed: 0,
+            threads: 0,
+            aovs: false,
+            sampler: SamplerKind::Independent,
+            cancel: CancelFlag::default(),
+            first_sample: 0,
+            filter_weights: false,
+        }
+    }
 }
 
 /// Progress reported while rendering.
@@ -116,12 +145,15 @@ pub(crate) fn camera_sample(
     pixel: IVec2,
     width: u64,
     index: u32,
-) -> (Sampler, glam::Vec2, crate::ray::Ray) {
+) -> (Sampler, glam::Vec2, crate::ray::CameraRay) {
     let pixel_index = pixel.y as u64 * width + pixel.x as u64;
     let mut sampler = Sampler::new(settings.sampler, settings.seed, pixel_index, index);
     let film_pos = pixel.as_vec2() + sampler.next_2d();
     let aperture = sampler.next_2d();
-    let ray = camera.generate_ray(film_pos, aperture);
+    let mut ray = camera.generate_ray_differential(film_pos, aperture);
+    // Mitsuba 0.6 shrinks the pixel footprint with the sample density: 1/√spp of a pixel.
+    let amount = 1.0 / (settings.spp.max(1) as f32).sqrt();
+    ray.differential = ray.differential.map(|d| d.scaled(&ray.ray, amount));
     (sampler, film_pos, ray)
 }
 
@@ -163,7 +195,7 @@ fn render_tile(
                 let (mut sampler, film_pos, ray) =
                     camera_sample(camera, settings, pixel, width, index);
                 let mut aovs = FirstHitAovs::default();
-                let l = integrator.li(scene, ray, &mut sampler, &mut aovs, &mut segments);
+                let l = integrator.li(scene, &ray, &mut sampler, &mut aovs, &mut segments);
                 let aov = AovSample {
                     albedo: aovs.albedo,
                     normal: aovs.normal,
@@ -227,17 +259,17 @@ impl<'a> PassRunner<'a> {
             tiles: tiles(spec),
             spp_done: 0,
             passes: 0,
-            index_offset: 0,
+            index_offset: settings.first_sample,
             pixel_weights: None,
         }
     }
 
-    /// The runner's samples draw from the random streams of sample indices `offset + i` rather than
-    /// `i`: the iterations of a guided render use disjoint streams, so their images are independent
+    /// The runner's samples draw from the random streams of sample indices `first_sample + offset + i`
+    /// rather than `first_sample + i` ([`RenderSettings::first_sample`]): the iterations of a guided render use disjoint streams, so their images are independent
     /// (with the same streams, two iterations would share camera rays and first bounces, and their
     /// combination and variance estimates would assume an independence they lack).
     pub fn with_index_offset(mut self, offset: u32) -> Self {
-        self.index_offset = offset;
+        self.index_offset = self.settings.first_sample.wrapping_add(offset);
         self
     }
 
@@ -293,9 +325,16 @@ impl<'a> PassRunner<'a> {
         self.pool.install(f)
     }
 
+    /// True once the render was asked to stop ([`RenderSettings::cancel`]).
+    pub fn cancelled(&self) -> bool {
+        self.settings.cancel.is_set()
+    }
+
     /// Renders samples `[spp_done, spp_done + count)` of every pixel and returns the training segments the
     /// integrator recorded, in tile, pixel and sample order (deterministic for any thread count).
     /// `on_tile` is called from worker threads with the number of pixel samples each tile finished.
+    /// If the render is asked to stop ([`Self::cancelled`]) before or during the pass, the pass is
+    /// dropped whole: nothing is added and no segment returned.
     pub fn run_pass(
         &mut self,
         integrator: &dyn Integrator,
@@ -312,10 +351,16 @@ impl<'a> PassRunner<'a> {
             &self.tiles,
         );
         let pixel_weights = self.pixel_weights.as_deref();
-        let outputs: Vec<TileOutput> = self.pool.install(|| {
+        if self.cancelled() {
+            return Vec::new();
+        }
+        let outputs: Vec<Option<TileOutput>> = self.pool.install(|| {
             tiles
                 .par_iter()
                 .map(|&tile| {
+                    if settings.cancel.is_set() {
+                        return None;
+                    }
                     let out = render_tile(
                         scene,
                         camera,
@@ -329,10 +374,13 @@ impl<'a> PassRunner<'a> {
                         pixel_weights,
                     );
                     on_tile(tile.1.x as u64 * tile.1.y as u64 * count as u64);
-                    out
+                    Some(out)
                 })
                 .collect()
         });
+        let Some(outputs) = outputs.into_iter().collect::<Option<Vec<TileOutput>>>() else {
+            return Vec::new();
+        };
         let mut segments = Vec::with_capacity(outputs.iter().map(|o| o.segments.len()).sum());
         for out in outputs {
             for (film, block) in self.films.iter_mut().zip(&out.blocks) {
@@ -345,10 +393,15 @@ impl<'a> PassRunner<'a> {
         segments
     }
 
-    /// The developed image of all samples so far.
+    /// The developed image of all samples so far (with a single film and
+    /// [`RenderSettings::filter_weights`], with its filter weights as a layer).
     pub fn develop(&self) -> Image {
         if self.films.len() == 1 {
-            return self.films[0].develop();
+            let mut image = self.films[0].develop();
+            if self.settings.filter_weights {
+                image.layers.push(self.films[0].weight_layer());
+            }
+            return image;
         }
         // The halves' filter weights differ per pixel only through the samples' positions, so the
         // sample-count weighted mean of the developed halves is the full image up to that noise.
@@ -434,7 +487,7 @@ pub fn render(
     // Passes grow geometrically so that time-limited renders stop close to the budget and fixed-spp renders
     // spend little time merging.
     let mut pass_spp = 1u32;
-    while runner.spp_done() < settings.spp {
+    while runner.spp_done() < settings.spp && !runner.cancelled() {
         let count = pass_spp.min(settings.spp - runner.spp_done());
         let pass_start = Instant::now();
         runner.run_pass(integrator, count, &on_tile);

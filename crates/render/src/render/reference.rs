@@ -75,7 +75,8 @@ pub enum ReferenceOutcome {
         /// Samples per pixel that were already done when this run started.
         resumed_from_spp: u32,
     },
-    /// Stopped early on purpose (`stop_after_passes`); the checkpoint holds the progress.
+    /// Stopped early on purpose (`stop_after_passes`, or asked to stop through
+    /// [`RenderSettings::cancel`]); the checkpoint holds the progress.
     Stopped {
         /// Samples per pixel done so far.
         spp_done: u32,
@@ -232,7 +233,7 @@ pub fn render_reference(
         write_atomically(checkpoint, &bytes)
     };
     while runner.spp_done() < settings.render.spp {
-        if settings.stop_after_passes == Some(passes_this_run) {
+        if settings.stop_after_passes == Some(passes_this_run) || runner.cancelled() {
             save(&runner, &total, &sum, &sum_sq)?;
             return Ok(ReferenceOutcome::Stopped {
                 spp_done: runner.spp_done(),
@@ -242,7 +243,15 @@ pub fn render_reference(
             .pass_spp
             .min(settings.render.spp - runner.spp_done());
         runner.clear_films();
+        let before = runner.spp_done();
         runner.run_pass(integrator, count, &on_tile);
+        if runner.spp_done() == before {
+            // Asked to stop during the pass, which was dropped: keep what the passes before it did.
+            save(&runner, &total, &sum, &sum_sq)?;
+            return Ok(ReferenceOutcome::Stopped {
+                spp_done: runner.spp_done(),
+            });
+        }
         let film = &runner.films()[0];
         total.merge_film(film);
         let pass_image = film.develop();

@@ -1,9 +1,11 @@
 //! Turns the neutral scene description into render objects (as pbrt-v4 and Mitsuba do): shapes with their
 //! materials and area lights, other lights, the camera, film, sampler and integrator settings.
 
+use super::sampler_spec::sampler_from_desc;
+pub use super::sampler_spec::SamplerSpec;
 use super::{Scene, ShapeInfo};
 use crate::accel::{Accel, BvhAccel};
-use crate::bsdf::{bsdf_from_desc, Bsdf, Diffuse};
+use crate::bsdf::{build_bsdf, Bsdf, Diffuse};
 use crate::camera::{camera_from_desc, Camera};
 use crate::desc::{ObjectClass, ObjectDesc, SceneDesc};
 use crate::emitter::{Emitter, SpotLight};
@@ -15,7 +17,6 @@ use crate::geometry::{
 use crate::guide::{GuideParams, GuidingMethod};
 use crate::integrator::{GuidedSettings, PathSettings, Roulette};
 use crate::mesh::{load_obj, load_ply, load_serialized, MeshData};
-use crate::sampler::SamplerKind;
 use crate::texture::Texture;
 use glam::{Affine3A, Mat4, Vec3};
 use std::collections::HashMap;
@@ -60,11 +61,17 @@ pub enum Strictness {
     Lenient,
 }
 
-/// Integrator plugins of other renderers' path-guiding research code that corpus scenes name (Müller et
-/// al.'s `guided_path` in Mitsuba 0.6, a Mitsuba 3 `path_guiding_integrator`). Their guides are not ours,
-/// so they are rendered with the unbiased path tracer and their `max_depth`/`rr_depth` (a documented
-/// mapping with a warning, not an error); their guiding parameters are ignored.
-pub const FOREIGN_GUIDING_INTEGRATORS: &[&str] = &["guided_path", "path_guiding_integrator"];
+/// Integrator plugins of other renderers' research code that corpus scenes name (Müller et al.'s
+/// `guided_path` in Mitsuba 0.6, a Mitsuba 3 `path_guiding_integrator`, Zeltner et al.'s specular
+/// manifold sampling `path_sms_ss`/`path_sms_ms`). They estimate the same image as a path tracer, so they
+/// are rendered with the unbiased path tracer and their `max_depth`/`rr_depth` (a documented mapping
+/// with a warning, not an error); their other parameters are ignored.
+pub const FOREIGN_GUIDING_INTEGRATORS: &[&str] = &[
+    "guided_path",
+    "path_guiding_integrator",
+    "path_sms_ss",
+    "path_sms_ms",
+];
 
 /// Options for building a scene.
 #[derive(Clone, Debug, Default)]
@@ -73,15 +80,9 @@ pub struct BuildOptions {
     pub integrator_override: Option<String>,
     /// Unknown-plugin handling.
     pub strictness: Strictness,
-}
-
-/// Sampler settings of the sensor.
-#[derive(Clone, Copy, Debug, serde::Serialize, serde::Deserialize)]
-pub struct SamplerSpec {
-    /// Generator.
-    pub kind: SamplerKind,
-    /// Samples per pixel the scene asks for.
-    pub spp: u32,
+    /// Replace the film's size: width, and height (`None`: the film's aspect ratio). The camera is
+    /// built for the new size, and a crop window scales with the film.
+    pub film_size: Option<(u32, Option<u32>)>,
 }
 
 /// A scene with everything needed to render it.
@@ -175,13 +176,19 @@ pub fn build_scene(desc: &SceneDesc, opts: &BuildOptions) -> SceneResult<LoadedS
         .children_of(&ObjectClass::Film)
         .next()
         .map(|c| c.object.as_ref());
-    let film = film_from_desc(film_desc)?;
+    let mut film = film_from_desc(film_desc)?;
+    if let Some((w, h)) = opts.film_size {
+        film = film
+            .resized(w, h)
+            .map_err(|e| SceneError::in_file(&desc.path, e))?;
+    }
     let camera = camera_from_desc(sensor, glam::UVec2::new(film.width, film.height))?;
     let sampler = sampler_from_desc(
         sensor
             .children_of(&ObjectClass::Sampler)
             .next()
             .map(|c| c.object.as_ref()),
+        &mut b.warnings,
     )?;
     let integrator = b.integrator_from_desc(integrator, &desc.path)?;
 
@@ -210,29 +217,6 @@ pub fn build_scene(desc: &SceneDesc, opts: &BuildOptions) -> SceneResult<LoadedS
         sampler,
         integrator,
         warnings,
-    })
-}
-
-fn sampler_from_desc(s: Option<&ObjectDesc>) -> SceneResult<SamplerSpec> {
-    let Some(s) = s else {
-        return Ok(SamplerSpec {
-            kind: SamplerKind::Independent,
-            spp: 4,
-        });
-    };
-    let kind = match s.plugin.as_str() {
-        "independent" => SamplerKind::Independent,
-        "stratified" | "multijitter" | "orthogonal" | "ldsampler" | "sobol" | "halton"
-        | "hammersley" => SamplerKind::Sobol,
-        other => return Err(s.error(format!("unknown sampler plugin '{other}'"))),
-    };
-    let spp = s.int_or("sample_count", 4)?;
-    if spp < 1 {
-        return Err(s.error(format!("sample_count must be at least 1, got {spp}")));
-    }
-    Ok(SamplerSpec {
-        kind,
-        spp: spp.min(u32::MAX as i64) as u32,
     })
 }
 
@@ -358,7 +342,7 @@ impl Builder<'_> {
                 };
                 let at = i.map_or_else(|| scene_path.display().to_string(), |i| i.loc.to_string());
                 self.warnings.push(format!(
-                    "{at}: integrator '{foreign}' is another renderer's path-guiding plugin; rendering it \
+                    "{at}: integrator '{foreign}' is another renderer's research plugin; rendering it \
                      with focal's unbiased path tracer 'path' (max_depth {depth}, rr_depth {}), its other \
                      parameters ignored (use --guiding octree|gmm for focal guiding)",
                     s.rr_depth
@@ -394,7 +378,7 @@ impl Builder<'_> {
         if let Some(&i) = self.bsdf_index.get(&key) {
             return Ok(i);
         }
-        let bsdf = match bsdf_from_desc(o) {
+        let bsdf = match build_bsdf(o, &mut self.warnings) {
             Ok(b) => b,
             Err(e)
                 if self.opts.strictness == Strictness::Lenient

@@ -2,6 +2,8 @@
 //! need (closest hit, visibility, light sampling and light pdfs).
 
 mod build;
+mod footprint;
+mod sampler_spec;
 
 pub use build::{
     build_scene, BuildOptions, GuidedSpec, IntegratorSpec, LoadedScene, SamplerSpec, Strictness,
@@ -138,7 +140,7 @@ impl Scene {
                 return t;
             };
             let bsdf = &self.bsdfs[self.shapes[si.shape as usize].bsdf as usize];
-            let Some(tr) = bsdf.pass_through(&BsdfContext { uv: si.uv }) else {
+            let Some(tr) = bsdf.pass_through(&BsdfContext::at_uv(si.uv)) else {
                 return Rgb::ZERO;
             };
             t *= tr;
@@ -201,6 +203,7 @@ impl Scene {
                     sh_frame: Frame::from_normal_tangent(ns, tangent),
                     uv,
                     shape,
+                    prim: hit.prim,
                 }
             }
             ShapeGeometry::Sphere(s) => {
@@ -215,6 +218,7 @@ impl Scene {
                     sh_frame: Frame::from_normal_tangent(n, tangent),
                     uv: s.uv(p),
                     shape,
+                    prim: 0,
                 }
             }
             ShapeGeometry::Disk(d) => {
@@ -227,6 +231,7 @@ impl Scene {
                     sh_frame: Frame::from_normal(n),
                     uv: d.uv(p),
                     shape,
+                    prim: 0,
                 }
             }
             ShapeGeometry::Cylinder(c) => {
@@ -238,6 +243,7 @@ impl Scene {
                     sh_frame: Frame::from_normal_tangent(n, tangent),
                     uv,
                     shape,
+                    prim: hit.prim,
                 }
             }
         }

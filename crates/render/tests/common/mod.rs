@@ -9,11 +9,11 @@ use focal_render::sampler::SamplerKind;
 use focal_render::scene::{build_scene, BuildOptions, LoadedScene};
 use std::path::{Path, PathBuf};
 
-pub use focal_render::testing::shared_dir;
+pub use focal_render::testing::test_data_dir;
 
-/// Path of a reference scene in `shared/references/scenes`.
+/// Path of a reference scene in `tests/data/references/scenes`.
 pub fn reference_scene(name: &str) -> PathBuf {
-    shared_dir()
+    test_data_dir()
         .join("references/scenes")
         .join(format!("{name}.xml"))
 }
@@ -27,6 +27,7 @@ pub fn settings(spp: u32, seed: u64, threads: usize) -> RenderSettings {
         threads,
         aovs: false,
         sampler: SamplerKind::Independent,
+        ..RenderSettings::default()
     }
 }
 
@@ -81,7 +82,7 @@ pub fn mean_and_stderr(s: &LoadedScene, spp: u32, passes: u32) -> ([f64; 3], [f6
 
 /// Reads the `mean_rgb` and `stderr_rgb` of a Mitsuba 3 reference JSON.
 pub fn mitsuba_mean(json_name: &str) -> ([f64; 3], [f64; 3]) {
-    let p = shared_dir().join("references/mitsuba3").join(json_name);
+    let p = test_data_dir().join("references/mitsuba3").join(json_name);
     let v: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&p).unwrap()).unwrap();
     let get = |k: &str| -> [f64; 3] {
         let a = v[k].as_array().unwrap();

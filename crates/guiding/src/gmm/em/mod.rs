@@ -55,10 +55,9 @@ use super::sym3::Sym3;
 use structure::{restructure, Entry};
 
 /// A component needs this many effective points before its binned divergence is trusted. Points, not
-/// rays: the points along one ray are correlated, but counting rays instead (tried: effective points /
-/// points per ray, at least 256 rays) stopped all splits on the obscura and door-gap scenes (K stayed at
-/// k_init = 8) and made their equal-time relMSE 1.5-1.6× worse (20 s, 2 seeds, against this criterion in
-/// the same session); the structure the divergence sees is real even when few rays show it.
+/// rays: the points along one ray are correlated, but the structure the divergence sees is real even
+/// when few rays show it, and counting rays instead stopped all splits on the obscura and door-gap
+/// scenes (docs/experiments/2026-12-01-gmm-split-criterion.md).
 pub(super) const MIN_SPLIT_POINTS: f64 = 512.0;
 /// A birth cell must hold at least this share of its component's binned weight.
 pub(super) const MIN_BIRTH_SHARE: f64 = 0.01;
