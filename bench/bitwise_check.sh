@@ -3,7 +3,7 @@
 # scene with the path tracer, the octree and the GMM at a fixed seed and spp with both binaries and
 # compares the EXRs byte for byte.
 #
-# Usage: bench/bitwise_check.sh BASE_BIN NEW_BIN OUT_DIR [SPP] [RES]
+# Usage: [COMBINE=variance] bench/bitwise_check.sh BASE_BIN NEW_BIN OUT_DIR [SPP] [RES]
 # Example (base built in a worktree of the commit before the change):
 #   bench/bitwise_check.sh /tmp/redesign-base/target/release/focal target/release/focal /tmp/bitwise 16 64
 set -u
@@ -14,7 +14,9 @@ status=0
 for scene in $scenes; do
   name=$(basename "$scene" .xml)
   for method in path octree gmm; do
-    if [ "$method" = path ]; then args=(--integrator path); else args=(--guiding "$method"); fi
+    # --combine last: before 82e74b9 the variance combination weighed iterations by their measured
+    # seconds, so a guided image was not reproducible from run to run on a base older than that.
+    if [ "$method" = path ]; then args=(--integrator path); else args=(--guiding "$method" --combine "${COMBINE:-last}"); fi
     for side in base new; do
       bin=$base; [ "$side" = new ] && bin=$new
       "$bin" render "$scene" -D res="$res" --spp "$spp" --seed 7 -q "${args[@]}" \
