@@ -8,7 +8,7 @@ DIR -o DIR.exr`, named SCENE_METHOD_SEED (SCENE as in bench/benchmark.py):
   python3 bench/combination_study.py RUNS_DIR [--rules last,old,raised_third,...]
 
 Each rule turns the saved iterations (two halves each, with spp from the sidecar) into an
-image, which is scored as the benchmark scores (bench/benchmark.py, crates/render/src/score.rs): the
+image, which is scored as the benchmark scores (bench/benchmark.py, crates/render/src/eval/score.rs): the
 untrimmed exposure-normalised relMSE against the truth from both references, and the bias check. Since every
 rule sees the same iterations, the per-seed ratios between rules are paired and far less noisy than
 separate renders.

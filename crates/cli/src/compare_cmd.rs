@@ -13,11 +13,11 @@ use crate::report_html::{write_report, Figure, ReportPage, ViewerImage};
 use anyhow::{bail, Context, Result};
 use clap::Args;
 use focal_render::color::srgb_to_linear;
+use focal_render::diagnostics::guide_view::viridis;
+use focal_render::eval::metrics::{image_errors, per_pixel_errors, ImageErrors};
+use focal_render::eval::score::{score, Score};
+use focal_render::eval::two_reference::two_reference_rel_mse;
 use focal_render::film::Image;
-use focal_render::metrics::{image_errors, per_pixel_errors, ImageErrors};
-use focal_render::render::guide_view::viridis;
-use focal_render::score::{score, Score};
-use focal_render::two_reference::two_reference_rel_mse;
 use std::path::{Path, PathBuf};
 
 /// Arguments of `focal compare`.
@@ -67,7 +67,7 @@ pub struct CompareArgs {
     #[arg(long, default_value_t = 0)]
     pub threads: usize,
     /// ε of relMSE.
-    #[arg(long, default_value_t = focal_render::metrics::DEFAULT_REL_EPSILON)]
+    #[arg(long, default_value_t = focal_render::eval::metrics::DEFAULT_REL_EPSILON)]
     pub epsilon: f64,
     /// Fraction of the largest per-pixel errors dropped (e.g. 0.001).
     #[arg(long, default_value_t = 0.0)]
@@ -126,7 +126,7 @@ struct Row {
     ldr_flip: f64,
     /// relMSE against the true image from both references (with `--second-reference`).
     rel_mse_two_references: Option<f64>,
-    /// The benchmark's score (bias check, exposure-normalised relMSE): see `focal_render::score`.
+    /// The benchmark's score (bias check, exposure-normalised relMSE): see `focal_render::eval::score`.
     score: Score,
 }
 
@@ -723,7 +723,7 @@ fn judge(
 }
 
 /// Warns when a run's image is too dark or too bright to judge by its error (the bias check of
-/// `focal_render::score` failed), or when its error is within a factor 2 of a black image's: then an
+/// `focal_render::eval::score` failed), or when its error is within a factor 2 of a black image's: then an
 /// image that missed the light would score as well, and the relMSE ranks nothing.
 fn warn_if_like_black(method: &str, seed: u64, s: &Score) {
     if s.failed {

@@ -1,5 +1,5 @@
 //! `focal fireflies`: which samples of a render with a trained guide carry its error, and what their
-//! paths did (see `focal_render::render::fireflies`).
+//! paths did (see `focal_render::diagnostics::fireflies`).
 
 use crate::guiding_args::{guided_spec, load_guide_for};
 use crate::input_checks;
@@ -7,11 +7,11 @@ use crate::json_out;
 use crate::render_cmd::{parse_defines, parse_res, parse_sampler, GuidingArgs};
 use anyhow::{bail, Context, Result};
 use clap::Args;
+use focal_render::diagnostics::fireflies::{find_fireflies, Firefly};
 use focal_render::film::Image;
 use focal_render::integrator::path_trace::{LightEvent, PathTrace, Strategy};
 use focal_render::integrator::GuidedPathIntegrator;
 use focal_render::load::load_scene;
-use focal_render::render::fireflies::{find_fireflies, Firefly};
 use focal_render::render::RenderSettings;
 use focal_render::scene::{BuildOptions, Strictness};
 use std::collections::BTreeMap;
@@ -35,7 +35,7 @@ pub struct FirefliesArgs {
     #[arg(long, default_value_t = 20)]
     pub top: usize,
     /// ε of relMSE.
-    #[arg(long, default_value_t = focal_render::metrics::DEFAULT_REL_EPSILON)]
+    #[arg(long, default_value_t = focal_render::eval::metrics::DEFAULT_REL_EPSILON)]
     pub epsilon: f64,
     /// Also write the report, with every listed sample's whole path, as JSON to PATH (`-`: standard
     /// output).
@@ -139,7 +139,6 @@ pub fn run(a: FirefliesArgs) -> Result<()> {
     let integrator = GuidedPathIntegrator {
         settings: spec.settings,
         guide: Some(guide.as_ref()),
-        record: false,
     };
     let report = find_fireflies(
         &loaded.scene,

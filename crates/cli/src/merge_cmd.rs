@@ -5,8 +5,8 @@
 use crate::input_checks;
 use anyhow::{bail, Context, Result};
 use clap::Args;
+use focal_render::eval::merge::merge_images;
 use focal_render::film::{Image, FILTER_WEIGHT_LAYER};
-use focal_render::render::merge::merge_images;
 use std::path::{Path, PathBuf};
 
 /// Arguments of `focal merge`.

@@ -4,11 +4,11 @@ use crate::flip::ldr_flip;
 use crate::json_out;
 use anyhow::{Context, Result};
 use clap::Args;
-use focal_render::agreement::{agreement, VARIANCE_LAYER};
+use focal_render::eval::agreement::{agreement, VARIANCE_LAYER};
+use focal_render::eval::metrics::{image_errors, DEFAULT_REL_EPSILON, FIREFLY_PIXEL_FRACTION};
+use focal_render::eval::score::score;
+use focal_render::eval::two_reference::two_reference_rel_mse;
 use focal_render::film::Image;
-use focal_render::metrics::{image_errors, DEFAULT_REL_EPSILON, FIREFLY_PIXEL_FRACTION};
-use focal_render::score::score;
-use focal_render::two_reference::two_reference_rel_mse;
 use std::io::Write;
 use std::path::PathBuf;
 

@@ -137,7 +137,6 @@ pub fn run(a: ReferenceArgs) -> Result<()> {
         Some(g) => Box::new(GuidedPathIntegrator {
             settings: guided_settings,
             guide: Some(g.as_ref()),
-            record: false,
         }),
         None => Box::new(PathIntegrator { settings: path }),
     };

@@ -8,10 +8,12 @@ use crate::render_output::{write_render, RenderRecord};
 use crate::shard::Shard;
 use anyhow::{bail, Context, Result};
 use clap::Args;
+use focal_render::diagnostics::guide_view::{
+    false_colour_log, guide_pdf_image, guide_structure_image,
+};
 use focal_render::guide::make_guide;
 use focal_render::load::{load_scene, make_integrator};
 use focal_render::render::combine::Combine;
-use focal_render::render::guide_view::{false_colour_log, guide_pdf_image, guide_structure_image};
 use focal_render::render::guided::{render_guided, GuidedRenderSettings, TrainingBudget};
 use focal_render::render::memory::{guided_render_bytes, plain_render_bytes};
 use focal_render::render::{render, RenderSettings};

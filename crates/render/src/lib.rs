@@ -6,13 +6,14 @@
 //! deterministically for a fixed seed.
 
 pub mod accel;
-pub mod agreement;
 pub mod bsdf;
 pub mod camera;
 pub mod color;
 pub mod desc;
+pub mod diagnostics;
 pub mod emitter;
 pub mod error;
+pub mod eval;
 pub mod film;
 pub mod frame;
 pub mod geometry;
@@ -21,16 +22,13 @@ pub mod guide_file;
 pub mod integrator;
 pub mod load;
 pub mod mesh;
-pub mod metrics;
 pub mod plugins;
 pub mod ray;
 pub mod render;
 pub mod sampler;
 pub mod scene;
-pub mod score;
 pub mod testing;
 pub mod texture;
-pub mod two_reference;
 pub mod warp;
 
 /// The guiding library this renderer links (re-exported so tools need not depend on it separately).

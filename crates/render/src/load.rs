@@ -25,7 +25,6 @@ pub fn make_integrator(spec: &IntegratorSpec) -> Box<dyn Integrator> {
         IntegratorSpec::Guided(g) => Box::new(GuidedPathIntegrator {
             settings: g.settings,
             guide: None,
-            record: false,
         }),
     }
 }

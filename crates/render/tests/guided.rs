@@ -573,7 +573,6 @@ fn albedo_roulette_survivals_do_not_compound() {
     let integrator = GuidedPathIntegrator {
         settings: GuidedSettings::default(),
         guide: Some(guide.as_ref()),
-        record: false,
     };
     let (w, h) = (scene.film.crop_size.x, scene.film.crop_size.y);
     let mut trace = PathTrace::default();
@@ -644,7 +643,6 @@ fn splitting_keeps_the_mean() {
             ..GuidedSettings::default()
         },
         guide: Some(guide.as_ref()),
-        record: false,
     };
     let (w, h) = (scene.film.crop_size.x, scene.film.crop_size.y);
     let mut trace = PathTrace::default();

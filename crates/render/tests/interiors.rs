@@ -7,11 +7,11 @@
 mod common;
 
 use common::*;
+use focal_render::eval::score::{trimmed_brightness, TRIM_FRACTION};
 use focal_render::guide::{make_guide, GuideParams, GuidingMethod};
 use focal_render::integrator::GuidedSettings;
 use focal_render::render::combine::Combine;
 use focal_render::render::guided::{render_guided, GuidedRenderSettings, TrainingBudget};
-use focal_render::score::{trimmed_brightness, TRIM_FRACTION};
 use std::path::PathBuf;
 
 fn interior(name: &str) -> focal_render::scene::LoadedScene {

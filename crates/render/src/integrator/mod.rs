@@ -13,7 +13,6 @@ use crate::geometry::SurfaceInteraction;
 use crate::ray::{offset_ray_origin, CameraRay, Ray};
 use crate::sampler::Sampler;
 use crate::scene::{Scene, MAX_PASS_THROUGH};
-use focal_guiding::TrainingSegment;
 use glam::Vec3;
 
 /// Auxiliary per-sample outputs recorded at the first camera hit.
@@ -29,17 +28,16 @@ pub struct FirstHitAovs {
 
 /// Estimates the radiance arriving along camera rays.
 pub trait Integrator: Send + Sync {
-    /// One-sample estimate of the radiance along `ray`; fills `aovs` at the first hit. A training
-    /// integrator appends the path's guiding segments to `training` (others leave it alone). The ray's
+    /// One-sample estimate of the radiance along `ray`; fills `aovs` at the first hit. The ray's
     /// differential, if any, gives MIP-mapped textures their footprint at the first hit; later
-    /// bounces read the finest level (as Mitsuba 0.6).
+    /// bounces read the finest level (as Mitsuba 0.6). (Recording training data is the guided
+    /// integrator's own [`GuidedPathIntegrator::li_recording`].)
     fn li(
         &self,
         scene: &Scene,
         ray: &CameraRay,
         sampler: &mut Sampler,
         aovs: &mut FirstHitAovs,
-        training: &mut Vec<TrainingSegment>,
     ) -> Rgb;
 }
 

@@ -8,7 +8,6 @@ use crate::color::Rgb;
 use crate::ray::{offset_ray_origin, CameraRay, Ray};
 use crate::sampler::Sampler;
 use crate::scene::Scene;
-use focal_guiding::TrainingSegment;
 
 /// Settings of the path integrator, with Mitsuba's meanings.
 #[derive(Clone, Copy, Debug, serde::Serialize, serde::Deserialize)]
@@ -70,7 +69,6 @@ impl Integrator for PathIntegrator {
         camera_ray: &CameraRay,
         sampler: &mut Sampler,
         aovs: &mut FirstHitAovs,
-        _training: &mut Vec<TrainingSegment>,
     ) -> Rgb {
         let s = &self.settings;
         if s.max_depth == 0 {

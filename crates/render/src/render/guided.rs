@@ -476,14 +476,19 @@ pub fn render_guided(
             let pass_start = Instant::now();
             let batch = if fell_back(&fallback) {
                 // Given up on guiding: the rest is rendered by the path tracer itself.
-                runner.run_pass(&unguided, count, &on_tile)
+                runner.run_pass(&unguided, count, &on_tile);
+                Vec::new()
             } else {
                 let integrator = GuidedPathIntegrator {
                     settings: settings.integrator,
                     guide: if guided { guide.as_deref() } else { None },
-                    record: training,
                 };
-                runner.run_pass(&integrator, count, &on_tile)
+                if training {
+                    runner.run_recording_pass(&integrator, count, &on_tile)
+                } else {
+                    runner.run_pass(&integrator, count, &on_tile);
+                    Vec::new()
+                }
             };
             if training {
                 segments += batch.len() as u64;

@@ -7,20 +7,16 @@
 pub mod cancel;
 pub mod combine;
 pub mod cross_check;
-pub mod fireflies;
-pub mod guide_ellipses;
-pub mod guide_view;
 pub mod guided;
 pub mod memory;
-pub mod merge;
-pub mod octree_slice;
 pub mod pixel_weights;
 pub mod reference;
 
 use self::cancel::CancelFlag;
 use crate::camera::Camera;
+use crate::color::Rgb;
 use crate::film::{AovSample, Film, FilmSpec, Image, ImageBlock};
-use crate::integrator::{FirstHitAovs, Integrator};
+use crate::integrator::{FirstHitAovs, GuidedPathIntegrator, Integrator};
 use crate::sampler::{Sampler, SamplerKind};
 use crate::scene::Scene;
 use focal_guiding::TrainingSegment;
@@ -167,13 +163,63 @@ pub(crate) fn thread_pool(threads: usize) -> (rayon::ThreadPool, usize) {
     (pool, threads)
 }
 
+/// One camera sample's radiance estimate (and the training segments it records, if any): what a pass
+/// evaluates per sample.
+trait SampleEstimator: Sync {
+    fn estimate(
+        &self,
+        ray: &crate::ray::CameraRay,
+        sampler: &mut Sampler,
+        aovs: &mut FirstHitAovs,
+        training: &mut Vec<TrainingSegment>,
+    ) -> Rgb;
+}
+
+/// An integrator's estimate, recording nothing.
+struct Plain<'a> {
+    scene: &'a Scene,
+    integrator: &'a dyn Integrator,
+}
+
+impl SampleEstimator for Plain<'_> {
+    #[inline]
+    fn estimate(
+        &self,
+        ray: &crate::ray::CameraRay,
+        sampler: &mut Sampler,
+        aovs: &mut FirstHitAovs,
+        _: &mut Vec<TrainingSegment>,
+    ) -> Rgb {
+        self.integrator.li(self.scene, ray, sampler, aovs)
+    }
+}
+
+/// The guided integrator's estimate with its training segments.
+struct Recording<'a, 'g> {
+    scene: &'a Scene,
+    integrator: &'a GuidedPathIntegrator<'g>,
+}
+
+impl SampleEstimator for Recording<'_, '_> {
+    #[inline]
+    fn estimate(
+        &self,
+        ray: &crate::ray::CameraRay,
+        sampler: &mut Sampler,
+        aovs: &mut FirstHitAovs,
+        training: &mut Vec<TrainingSegment>,
+    ) -> Rgb {
+        self.integrator
+            .li_recording(self.scene, ray, sampler, aovs, training)
+    }
+}
+
 /// Renders samples `[first, first + count)` of every pixel of one tile into fresh blocks; with two films,
 /// even sample indices go to the first and odd ones to the second.
 #[allow(clippy::too_many_arguments)]
-fn render_tile(
-    scene: &Scene,
+fn render_tile<E: SampleEstimator>(
     camera: &Camera,
-    integrator: &dyn Integrator,
+    estimator: &E,
     films: &[Film],
     settings: &RenderSettings,
     tile: (IVec2, UVec2),
@@ -195,7 +241,7 @@ fn render_tile(
                 let (mut sampler, film_pos, ray) =
                     camera_sample(camera, settings, pixel, width, index);
                 let mut aovs = FirstHitAovs::default();
-                let l = integrator.li(scene, &ray, &mut sampler, &mut aovs, &mut segments);
+                let l = estimator.estimate(&ray, &mut sampler, &mut aovs, &mut segments);
                 let aov = AovSample {
                     albedo: aovs.albedo,
                     normal: aovs.normal,
@@ -330,26 +376,42 @@ impl<'a> PassRunner<'a> {
         self.settings.cancel.is_set()
     }
 
-    /// Renders samples `[spp_done, spp_done + count)` of every pixel and returns the training segments the
-    /// integrator recorded, in tile, pixel and sample order (deterministic for any thread count).
-    /// `on_tile` is called from worker threads with the number of pixel samples each tile finished.
-    /// If the render is asked to stop ([`Self::cancelled`]) before or during the pass, the pass is
-    /// dropped whole: nothing is added and no segment returned.
+    /// Renders samples `[spp_done, spp_done + count)` of every pixel with `integrator`. `on_tile` is
+    /// called from worker threads with the number of pixel samples each tile finished. If the render is
+    /// asked to stop ([`Self::cancelled`]) before or during the pass, the pass is dropped whole: nothing
+    /// is added.
     pub fn run_pass(
         &mut self,
         integrator: &dyn Integrator,
         count: u32,
         on_tile: &(dyn Fn(u64) + Sync),
+    ) {
+        let scene = self.scene;
+        self.run_tiles(&Plain { scene, integrator }, count, on_tile);
+    }
+
+    /// [`Self::run_pass`] with the guided integrator recording training segments, which it returns in
+    /// tile, pixel and sample order (deterministic for any thread count; none if the pass was dropped).
+    pub fn run_recording_pass(
+        &mut self,
+        integrator: &GuidedPathIntegrator<'_>,
+        count: u32,
+        on_tile: &(dyn Fn(u64) + Sync),
+    ) -> Vec<TrainingSegment> {
+        let scene = self.scene;
+        self.run_tiles(&Recording { scene, integrator }, count, on_tile)
+    }
+
+    fn run_tiles<E: SampleEstimator>(
+        &mut self,
+        estimator: &E,
+        count: u32,
+        on_tile: &(dyn Fn(u64) + Sync),
     ) -> Vec<TrainingSegment> {
         let first = self.spp_done;
         let index_offset = self.index_offset;
-        let (scene, camera, films, settings, tiles) = (
-            self.scene,
-            self.camera,
-            &self.films,
-            &self.settings,
-            &self.tiles,
-        );
+        let (camera, films, settings, tiles) =
+            (self.camera, &self.films, &self.settings, &self.tiles);
         let pixel_weights = self.pixel_weights.as_deref();
         if self.cancelled() {
             return Vec::new();
@@ -362,9 +424,8 @@ impl<'a> PassRunner<'a> {
                         return None;
                     }
                     let out = render_tile(
-                        scene,
                         camera,
-                        integrator,
+                        estimator,
                         films,
                         settings,
                         tile,

@@ -10,12 +10,12 @@
 //! by pixels × spp², the scores estimate the image's relMSE (the reconstruction filter's spread aside),
 //! so the top samples' share says how much of the error they carry.
 
-use super::{camera_sample, thread_pool, RenderSettings};
 use crate::camera::Camera;
+use crate::eval::metrics::finite;
 use crate::film::{FilmSpec, Image};
 use crate::integrator::path_trace::PathTrace;
 use crate::integrator::GuidedPathIntegrator;
-use crate::metrics::finite;
+use crate::render::{camera_sample, thread_pool, RenderSettings};
 use crate::scene::Scene;
 use glam::IVec2;
 use rayon::prelude::*;

@@ -11,13 +11,13 @@
 //! 2. **Then the expected error**: relMSE over all pixels (untrimmed), with the exposure normalised: ε is
 //!    [`RELATIVE_EPSILON`] times the truth's squared mean brightness, so the score does not depend on
 //!    the scene's units and a dim room is not judged by the noise of its darkest pixels. Against two
-//!    independent references it estimates the error against the true image (see [`crate::two_reference`]).
+//!    independent references it estimates the error against the true image (see [`crate::eval::two_reference`]).
 //!
 //! With this normalisation a black image scores mean t²/(t² + ε) < 1 ([`Score::black_rel_mse`]), so a
 //! relMSE near or above that level says the budget was too small for the score to mean anything.
 
+use crate::eval::metrics::{finite, trimmed_mean};
 use crate::film::Image;
-use crate::metrics::{finite, trimmed_mean};
 
 /// The share of brightest pixels the bias check leaves out (the literature's 0.1 % outliers).
 pub const TRIM_FRACTION: f64 = 1e-3;

@@ -18,8 +18,8 @@
 //! references of relative noise σ_r each (and ε small), where one reference adds σ_r². References as
 //! noisy as 20 % per pixel thus leave 6 % of their noise in the estimate instead of all of it.
 
+use crate::eval::metrics::{finite, trimmed_mean};
 use crate::film::Image;
-use crate::metrics::{finite, trimmed_mean};
 
 /// Per-pixel estimates (averaged over the channels) of (x − μ)²/(μ² + ε) for `image` from the independent
 /// references `a` and `b`: (x − a)(x − b)/(m² + ε) with m = (a + b)/2. Non-finite values count as 0.
@@ -71,7 +71,7 @@ pub fn two_reference_rel_mse(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::metrics::image_errors;
+    use crate::eval::metrics::image_errors;
 
     use focal_testkit::TestRng;
 

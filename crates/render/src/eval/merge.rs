@@ -2,8 +2,8 @@
 //! into one image: the sample-count weighted mean, so `k` renders of `n_i` spp give the estimate of one
 //! render of `Σ n_i` spp.
 //!
-//! A [`super::reference::VARIANCE_LAYER`] present in every input is combined as the variance of the
-//! weighted mean of independent estimates, `Σ (n_i / N)² Var_i`. Other layers (AOVs) are averaged with
+//! A [`VARIANCE_LAYER`] present in every input is combined as the variance of the weighted mean of
+//! independent estimates, `Σ (n_i / N)² Var_i`. Other layers (AOVs) are averaged with
 //! the same weights.
 //!
 //! Where every input has a [`FILTER_WEIGHT_LAYER`] (the shards of one render), pixels are weighted by
@@ -11,8 +11,8 @@
 //! for shards drawing disjoint sample indices is the image of one render of all of them (to f32
 //! rounding). The output's filter weight is `Σ Wᵢ`, so merges of merges stay exact.
 
-use super::reference::VARIANCE_LAYER;
 use crate::film::{Image, FILTER_WEIGHT_LAYER};
+use crate::render::reference::VARIANCE_LAYER;
 
 /// The sample-count weighted mean of `inputs` (image, spp). Errors: no input, a zero sample count,
 /// different sizes, or layers that differ between inputs.

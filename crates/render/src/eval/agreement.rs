@@ -11,8 +11,8 @@
 //! correlated (((σ_R + σ_G + σ_B)/3)², an upper bound): the samples of one path carry all three. An image
 //! without a variance layer (a Mitsuba render) counts as exact.
 
+use crate::eval::metrics::finite;
 use crate::film::Image;
-use crate::metrics::finite;
 
 /// The name of the per-pixel variance-of-the-mean layer (as `focal reference` writes it).
 pub use crate::render::reference::VARIANCE_LAYER;
