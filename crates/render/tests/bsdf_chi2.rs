@@ -200,11 +200,7 @@ fn cases() -> Vec<Case> {
         Energy::AtMostOne,
     );
     let below = [dir(180.0, 0.0), dir(120.0, 40.0), dir(100.0, 300.0)];
-    let ts = |front: Bsdf, back: Bsdf| {
-        Bsdf::TwoSided(TwoSided {
-            sides: std::sync::Arc::new([front, back]),
-        })
-    };
+    let ts = |front: Bsdf, back: Bsdf| Bsdf::TwoSided(TwoSided::new(front, back));
     add(
         "twosided diffuse".into(),
         &ts(diffuse(1.0), diffuse(1.0)),
@@ -563,9 +559,7 @@ fn sidedness() {
         assert_eq!(b.pdf(&ctx, below, below2), 0.0);
         assert!(b.sample(&ctx, below, 0.3, Vec2::new(0.4, 0.6)).is_none());
     }
-    let ts = Bsdf::TwoSided(TwoSided {
-        sides: std::sync::Arc::new([diffuse(0.5), diffuse(0.5)]),
-    });
+    let ts = Bsdf::TwoSided(TwoSided::new(diffuse(0.5), diffuse(0.5)));
     assert!(ts.eval(&ctx, below, below2).x > 0.0);
     let d = rough_dielectric(MicrofacetKind::Ggx, 0.3, 0.3, true);
     assert!(d.eval(&ctx, below, below2).x > 0.0);

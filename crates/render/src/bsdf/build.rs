@@ -258,9 +258,7 @@ fn twosided(obj: &ObjectDesc, w: &mut Vec<String>) -> SceneResult<Bsdf> {
         sides[0].clone()
     };
     let front = sides.pop().expect("one side");
-    Ok(Bsdf::TwoSided(TwoSided {
-        sides: std::sync::Arc::new([front, back]),
-    }))
+    Ok(Bsdf::TwoSided(TwoSided::new(front, back)))
 }
 
 #[cfg(test)]

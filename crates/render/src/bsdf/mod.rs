@@ -247,7 +247,7 @@ impl Bsdf {
             Bsdf::Plastic(_) | Bsdf::RoughPlastic(_) | Bsdf::DiffuseTransmitter(_) => true,
             Bsdf::Phong(_) | Bsdf::Ward(_) => true,
             Bsdf::Conductor(_) | Bsdf::Dielectric(_) | Bsdf::ThinDielectric(_) => false,
-            Bsdf::TwoSided(b) => b.sides.iter().any(Bsdf::has_smooth),
+            Bsdf::TwoSided(b) => b.lobes.smooth,
             Bsdf::NormalMap(b) => b.nested.has_smooth(),
             Bsdf::Blend(b) => b.bsdfs.iter().any(Bsdf::has_smooth),
             Bsdf::Mask(b) => b.nested.has_smooth(),
@@ -270,7 +270,7 @@ impl Bsdf {
             | Bsdf::DiffuseTransmitter(_)
             | Bsdf::Phong(_)
             | Bsdf::Ward(_) => false,
-            Bsdf::TwoSided(b) => b.sides.iter().any(Bsdf::has_delta),
+            Bsdf::TwoSided(b) => b.lobes.delta,
             Bsdf::NormalMap(b) => b.nested.has_delta(),
             Bsdf::Blend(b) => b.bsdfs.iter().any(Bsdf::has_delta),
         }
@@ -282,7 +282,7 @@ impl Bsdf {
             Bsdf::Dielectric(_) | Bsdf::RoughDielectric(_) | Bsdf::ThinDielectric(_) => true,
             // The null event of a mask passes light to the other side.
             Bsdf::Mask(_) | Bsdf::DiffuseTransmitter(_) => true,
-            Bsdf::TwoSided(b) => b.sides.iter().any(Bsdf::has_transmission),
+            Bsdf::TwoSided(b) => b.lobes.transmission,
             Bsdf::NormalMap(b) => b.nested.has_transmission(),
             Bsdf::Blend(b) => b.bsdfs.iter().any(Bsdf::has_transmission),
             _ => false,
@@ -303,7 +303,7 @@ impl Bsdf {
             Bsdf::RoughPlastic(b) => b.distribution.min_alpha(),
             Bsdf::Phong(b) => b.roughness(),
             Bsdf::Ward(b) => 0.5 * (b.alpha_u + b.alpha_v),
-            Bsdf::TwoSided(b) => b.sides[0].min_roughness().min(b.sides[1].min_roughness()),
+            Bsdf::TwoSided(b) => b.lobes.min_roughness,
             Bsdf::NormalMap(b) => b.nested.min_roughness(),
             Bsdf::Blend(b) => b.bsdfs[0].min_roughness().min(b.bsdfs[1].min_roughness()),
             // The pass-through is no scattering vertex (see [`Bsdf::pass_through`]).
