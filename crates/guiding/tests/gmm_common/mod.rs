@@ -1,6 +1,8 @@
 //! Helpers shared by the GMM guide tests.
 #![allow(dead_code)]
 
+pub mod training;
+
 use std::f64::consts::PI;
 
 use focal_guiding::gmm::{Gaussian3, Mixture, Sym3};

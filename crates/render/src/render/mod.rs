@@ -7,6 +7,7 @@
 pub mod cancel;
 pub mod combine;
 pub mod cross_check;
+pub mod fallback;
 pub mod guided;
 pub mod memory;
 pub mod pixel_weights;
