@@ -1,7 +1,7 @@
 //! What `focal compare` checks before it renders anything (so a mistake leaves no half-written folder),
 //! and its judgement of the reference's own noise once the runs are in.
 
-use crate::compare_cmd::CompareArgs;
+use crate::compare_args::CompareArgs;
 use crate::input_checks;
 use crate::render_cmd::{parse_defines, parse_res};
 use anyhow::{bail, Context, Result};

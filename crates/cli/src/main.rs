@@ -1,6 +1,7 @@
 //! `focal`: render Mitsuba scenes, benchmark the path tracer. Thin: all the work is in `focal-render`.
 
 mod bench;
+mod compare_args;
 mod compare_checks;
 mod compare_cmd;
 mod convergence_plot;
@@ -13,6 +14,7 @@ mod json_out;
 mod merge_cmd;
 mod metrics_cmd;
 mod reference_cmd;
+mod render_args;
 mod render_cmd;
 mod render_output;
 mod report_html;
@@ -32,11 +34,11 @@ struct Cli {
 #[derive(Subcommand)]
 enum Command {
     /// Render a Mitsuba 0.6 / 3 XML scene to EXR (and optionally PNG), with a JSON sidecar.
-    Render(render_cmd::RenderArgs),
+    Render(render_args::RenderArgs),
     /// Measure path-tracing throughput (samples/s) on the reference scenes.
     Bench(bench::BenchArgs),
     /// Render a scene with several methods at equal time or spp and tabulate their errors.
-    Compare(compare_cmd::CompareArgs),
+    Compare(compare_args::CompareArgs),
     /// Error metrics (relMSE, MSE, MAPE, SMAPE, LDR-FLIP) of an image against a reference.
     Metrics(metrics_cmd::MetricsArgs),
     /// A long, resumable (checkpointed) unguided reference render with its per-pixel variance.

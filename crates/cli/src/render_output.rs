@@ -2,7 +2,7 @@
 //! how the image was made (and whether it was interrupted).
 
 use crate::interrupt;
-use crate::render_cmd::RenderArgs;
+use crate::render_args::RenderArgs;
 use anyhow::{bail, Context, Result};
 use focal_render::render::{RenderOutput, RenderSettings};
 use focal_render::scene::LoadedScene;

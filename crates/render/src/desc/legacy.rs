@@ -1,7 +1,7 @@
 //! Mitsuba 3's in-memory upgrade of pre-2.0 (Mitsuba 0.x) elements, and the defaults in which Mitsuba
 //! 0.6 differs from Mitsuba 3, made explicit so that the builder reads one dialect.
 
-use super::xml::Body;
+use super::body::Body;
 use super::{ObjectClass, PropValue, Property};
 use crate::error::{SceneResult, SourceLoc};
 use glam::{DMat4, DVec2};

@@ -5,6 +5,7 @@
 //! resolved (shared `Arc`s) and whose `<include>`s are inlined. The builder then turns it into render
 //! objects. Every object and property carries the file and line it came from, for error messages.
 
+mod body;
 mod legacy;
 pub mod xml;
 

@@ -6,7 +6,7 @@
 //! is convex, so it is the convex hull of the projections of points on its surface; 1024 surface points
 //! give a hull indistinguishable from the true conic at image resolution.
 
-use super::guide_view::viridis;
+use super::colour_map::viridis;
 use crate::camera::Camera;
 use crate::color::srgb_to_linear;
 use crate::film::{FilmSpec, Image};

@@ -1,11 +1,11 @@
 //! What a focal octree learned: the leaves' density on an axis-aligned slice through the guide's box,
 //! by default through the centre of the densest leaf and across the axis the camera looks along most,
-//! as a false-colour log-scale image (see [`super::guide_view::false_colour_log`]).
+//! as a false-colour log-scale image (see [`super::colour_map::false_colour_log`]).
 //!
 //! The value of a point is the guide's spatial density there, `(1 − p_div)·conv + p_div·div` of the
 //! leaves containing it (leaves partition the box, so every point has exactly one leaf per tree).
 
-use super::guide_view::false_colour_log;
+use super::colour_map::false_colour_log;
 use crate::film::Image;
 use focal_guiding::octree::{FocalOctreeGuide, FocalTree};
 use focal_guiding::GuidingField;

@@ -6,7 +6,7 @@
 
 use super::combine::{robust_inverse_variance_weights, IterationImage};
 use super::cross_check::CrossCheck;
-use super::guided::{moment_ratio, IterationStats};
+use super::iteration::{moment_ratio, IterationStats};
 use crate::film::Image;
 
 /// A time-budget render compares the guided iterations with the unguided first one ([`cross_check`](super::cross_check::cross_check))

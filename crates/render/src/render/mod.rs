@@ -9,6 +9,7 @@ pub mod combine;
 pub mod cross_check;
 pub mod fallback;
 pub mod guided;
+pub mod iteration;
 pub mod memory;
 pub mod pixel_weights;
 pub mod reference;
