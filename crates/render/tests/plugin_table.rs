@@ -118,9 +118,10 @@ fn scene_using(class: &str, name: &str) -> String {
         }
         "bsdf" => {
             let inner = match name {
-                "blendbsdf" | "mixturebsdf" => {
-                    r#"<bsdf type="diffuse"/><bsdf type="diffuse"/>"#.to_string()
-                }
+                "blendbsdf" => r#"<bsdf type="diffuse"/><bsdf type="diffuse"/>"#.to_string(),
+                "mixturebsdf" => r#"<string name="weights" value="0.4, 0.6"/>
+                    <bsdf type="diffuse"/><bsdf type="diffuse"/>"#
+                    .to_string(),
                 "normalmap" | "bumpmap" => format!(
                     r#"<bsdf type="diffuse"/><texture type="bitmap" name="{}">{image}</texture>"#,
                     if name == "normalmap" { "normalmap" } else { "bumpmap" }

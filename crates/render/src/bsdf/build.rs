@@ -33,6 +33,10 @@ const KNOWN_PLUGINS: &[&str] = &[
     "roughdiffuse",
     "phong",
     "ward",
+    "mixturebsdf",
+    "bumpmap",
+    "coating",
+    "roughcoating",
 ];
 
 /// Builds the BSDF described by a `<bsdf>` element, dropping warnings (see [`build_bsdf`]).
@@ -125,6 +129,7 @@ pub fn build_bsdf(obj: &ObjectDesc, warnings: &mut Vec<String>) -> SceneResult<B
         "twosided" => twosided(obj, w),
         "normalmap" => normalmap(obj, w),
         "blendbsdf" => blend(obj, w),
+        "mixturebsdf" => super::build_adapters::mixture(obj, w),
         "mask" => mask(obj, w),
         "difftrans" => Ok(Bsdf::DiffuseTransmitter(super::DiffuseTransmitter {
             // Mitsuba 0.6 also reads `diffuseTransmittance`.
@@ -134,10 +139,9 @@ pub fn build_bsdf(obj: &ObjectDesc, warnings: &mut Vec<String>) -> SceneResult<B
                 Rgb::splat(0.5),
             )?,
         })),
-        "bumpmap" => Err(obj.error(
-            "BSDF 'bumpmap' is not supported (height-field bump mapping); convert the height map to a \
-             tangent-space normal map and use 'normalmap'",
-        )),
+        "bumpmap" => super::build_adapters::bumpmap(obj, w),
+        "coating" => super::build_adapters::coating(obj, w),
+        "roughcoating" => super::build_adapters::roughcoating(obj, w),
         other => Err(obj.error(format!(
             "unknown BSDF plugin '{other}' (supported: {})",
             KNOWN_PLUGINS.join(", ")

@@ -11,6 +11,9 @@
 
 mod blend;
 pub mod build;
+mod build_adapters;
+mod bumpmap;
+mod coating;
 mod conductor;
 mod dielectric;
 mod difftrans;
@@ -19,10 +22,13 @@ pub mod fresnel;
 pub mod ior;
 mod mask;
 pub mod microfacet;
+mod mixture;
 mod normalmap;
 mod params;
 mod phong;
 mod plastic;
+mod rough_interface;
+mod roughcoating;
 mod roughconductor;
 mod roughdielectric;
 mod roughplastic;
@@ -32,16 +38,20 @@ mod ward;
 
 pub use blend::Blend;
 pub use build::{bsdf_from_desc, build_bsdf};
+pub use bumpmap::{shadow_terminator, BumpMap};
+pub use coating::Coating;
 pub use conductor::Conductor;
 pub use dielectric::Dielectric;
 pub use difftrans::DiffuseTransmitter;
 pub use diffuse::Diffuse;
 pub use mask::Mask;
 pub use microfacet::{Microfacet, MicrofacetKind};
+pub use mixture::Mixture;
 pub use normalmap::NormalMap;
 pub use params::texture_from_desc;
 pub use phong::Phong;
 pub use plastic::Plastic;
+pub use roughcoating::RoughCoating;
 pub use roughconductor::RoughConductor;
 pub use roughdielectric::RoughDielectric;
 pub use roughplastic::RoughPlastic;
@@ -61,6 +71,10 @@ pub struct BsdfContext {
     /// The pixel footprint in uv space at a camera ray's first hit (zero elsewhere), for MIP-mapped
     /// textures.
     pub footprint: UvFootprint,
+    /// ∂p/∂u of the surface in the local shading frame (zero when unknown), for bump maps.
+    pub dp_du: Vec3,
+    /// ∂p/∂v in the local shading frame (zero when unknown).
+    pub dp_dv: Vec3,
 }
 
 impl BsdfContext {
@@ -68,7 +82,7 @@ impl BsdfContext {
     pub fn at_uv(uv: Vec2) -> Self {
         BsdfContext {
             uv,
-            footprint: UvFootprint::default(),
+            ..Default::default()
         }
     }
 }
@@ -140,6 +154,14 @@ pub enum Bsdf {
     Phong(Box<Phong>),
     /// Anisotropic Ward (Mitsuba 0.6 `ward`).
     Ward(Box<Ward>),
+    /// Weighted sum of N BSDFs (Mitsuba 0.6 `mixturebsdf`).
+    Mixture(Box<Mixture>),
+    /// Bump-mapped nested BSDF (`bumpmap`).
+    BumpMap(Box<BumpMap>),
+    /// Smooth dielectric layer over a nested BSDF (Mitsuba 0.6 `coating`).
+    Coating(Box<Coating>),
+    /// Rough dielectric layer over a nested BSDF (Mitsuba 0.6 `roughcoating`).
+    RoughCoating(Box<RoughCoating>),
 }
 
 /// True for a strictly positive number (false for NaN), for rejecting degenerate samples.
@@ -173,6 +195,10 @@ impl Bsdf {
             Bsdf::DiffuseTransmitter(_) => "difftrans",
             Bsdf::Phong(_) => "phong",
             Bsdf::Ward(_) => "ward",
+            Bsdf::Mixture(_) => "mixturebsdf",
+            Bsdf::BumpMap(_) => "bumpmap",
+            Bsdf::Coating(_) => "coating",
+            Bsdf::RoughCoating(_) => "roughcoating",
         }
     }
 
@@ -192,6 +218,10 @@ impl Bsdf {
             Bsdf::DiffuseTransmitter(b) => b.eval(ctx, wi, wo),
             Bsdf::Phong(b) => b.eval(ctx, wi, wo),
             Bsdf::Ward(b) => b.eval(ctx, wi, wo),
+            Bsdf::Mixture(b) => b.eval(ctx, wi, wo),
+            Bsdf::BumpMap(b) => b.eval(ctx, wi, wo),
+            Bsdf::Coating(b) => b.eval(ctx, wi, wo),
+            Bsdf::RoughCoating(b) => b.eval(ctx, wi, wo),
             Bsdf::Conductor(_) | Bsdf::Dielectric(_) | Bsdf::ThinDielectric(_) => Rgb::ZERO,
         }
     }
@@ -212,6 +242,10 @@ impl Bsdf {
             Bsdf::DiffuseTransmitter(b) => b.pdf(ctx, wi, wo),
             Bsdf::Phong(b) => b.pdf(ctx, wi, wo),
             Bsdf::Ward(b) => b.pdf(ctx, wi, wo),
+            Bsdf::Mixture(b) => b.pdf(ctx, wi, wo),
+            Bsdf::BumpMap(b) => b.pdf(ctx, wi, wo),
+            Bsdf::Coating(b) => b.pdf(ctx, wi, wo),
+            Bsdf::RoughCoating(b) => b.pdf(ctx, wi, wo),
             Bsdf::Conductor(_) | Bsdf::Dielectric(_) | Bsdf::ThinDielectric(_) => 0.0,
         }
     }
@@ -236,6 +270,10 @@ impl Bsdf {
             Bsdf::DiffuseTransmitter(b) => b.sample(ctx, wi, u1, u2),
             Bsdf::Phong(b) => b.sample(ctx, wi, u1, u2),
             Bsdf::Ward(b) => b.sample(ctx, wi, u1, u2),
+            Bsdf::Mixture(b) => b.sample(ctx, wi, u1, u2),
+            Bsdf::BumpMap(b) => b.sample(ctx, wi, u1, u2),
+            Bsdf::Coating(b) => b.sample(ctx, wi, u1, u2),
+            Bsdf::RoughCoating(b) => b.sample(ctx, wi, u1, u2),
         }
     }
 
@@ -249,7 +287,11 @@ impl Bsdf {
             Bsdf::Conductor(_) | Bsdf::Dielectric(_) | Bsdf::ThinDielectric(_) => false,
             Bsdf::TwoSided(b) => b.lobes.smooth,
             Bsdf::NormalMap(b) => b.nested.has_smooth(),
+            Bsdf::BumpMap(b) => b.nested.has_smooth(),
+            Bsdf::Coating(b) => b.nested.has_smooth(),
+            Bsdf::RoughCoating(_) => true,
             Bsdf::Blend(b) => b.bsdfs.iter().any(Bsdf::has_smooth),
+            Bsdf::Mixture(b) => b.bsdfs.iter().any(Bsdf::has_smooth),
             Bsdf::Mask(b) => b.nested.has_smooth(),
         }
     }
@@ -272,7 +314,11 @@ impl Bsdf {
             | Bsdf::Ward(_) => false,
             Bsdf::TwoSided(b) => b.lobes.delta,
             Bsdf::NormalMap(b) => b.nested.has_delta(),
+            Bsdf::BumpMap(b) => b.nested.has_delta(),
+            Bsdf::Coating(_) => true,
+            Bsdf::RoughCoating(b) => b.nested.has_delta(),
             Bsdf::Blend(b) => b.bsdfs.iter().any(Bsdf::has_delta),
+            Bsdf::Mixture(b) => b.bsdfs.iter().any(Bsdf::has_delta),
         }
     }
 
@@ -284,7 +330,11 @@ impl Bsdf {
             Bsdf::Mask(_) | Bsdf::DiffuseTransmitter(_) => true,
             Bsdf::TwoSided(b) => b.lobes.transmission,
             Bsdf::NormalMap(b) => b.nested.has_transmission(),
+            Bsdf::BumpMap(b) => b.nested.has_transmission(),
+            Bsdf::Coating(b) => b.nested.has_transmission(),
+            Bsdf::RoughCoating(b) => b.nested.has_transmission(),
             Bsdf::Blend(b) => b.bsdfs.iter().any(Bsdf::has_transmission),
+            Bsdf::Mixture(b) => b.bsdfs.iter().any(Bsdf::has_transmission),
             _ => false,
         }
     }
@@ -305,7 +355,16 @@ impl Bsdf {
             Bsdf::Ward(b) => 0.5 * (b.alpha_u + b.alpha_v),
             Bsdf::TwoSided(b) => b.lobes.min_roughness,
             Bsdf::NormalMap(b) => b.nested.min_roughness(),
+            Bsdf::BumpMap(b) => b.nested.min_roughness(),
+            // The interface is a mirror.
+            Bsdf::Coating(_) => 0.0,
+            Bsdf::RoughCoating(b) => b.distribution.min_alpha().min(b.nested.min_roughness()),
             Bsdf::Blend(b) => b.bsdfs[0].min_roughness().min(b.bsdfs[1].min_roughness()),
+            Bsdf::Mixture(b) => b
+                .bsdfs
+                .iter()
+                .map(Bsdf::min_roughness)
+                .fold(f32::INFINITY, f32::min),
             // The pass-through is no scattering vertex (see [`Bsdf::pass_through`]).
             Bsdf::Mask(b) => b.nested.min_roughness(),
         }
@@ -359,10 +418,18 @@ impl Bsdf {
             Bsdf::RoughPlastic(b) => b.diffuse_reflectance.at(ctx) + b.specular_albedo(ctx),
             Bsdf::TwoSided(b) => b.sides[0].albedo(ctx),
             Bsdf::NormalMap(b) => b.nested.albedo(ctx),
+            Bsdf::BumpMap(b) => b.nested.albedo(ctx),
+            Bsdf::Coating(b) => b.albedo(ctx),
+            Bsdf::RoughCoating(b) => b.albedo(ctx),
             Bsdf::Blend(b) => {
                 let w = b.weight.at_1(ctx).clamp(0.0, 1.0);
                 b.bsdfs[0].albedo(ctx) * (1.0 - w) + b.bsdfs[1].albedo(ctx) * w
             }
+            Bsdf::Mixture(b) => b
+                .bsdfs
+                .iter()
+                .zip(b.weights())
+                .fold(Rgb::ZERO, |acc, (c, w)| acc + c.albedo(ctx) * *w),
             Bsdf::Mask(b) => b.nested.albedo(ctx) * b.opacity(ctx),
             Bsdf::DiffuseTransmitter(b) => b.transmittance.at(ctx),
             Bsdf::Phong(b) => b.diffuse_reflectance.at(ctx) + b.specular_reflectance.at(ctx),

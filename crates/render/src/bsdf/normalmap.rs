@@ -31,21 +31,11 @@ impl NormalMap {
     }
 
     pub(super) fn eval(&self, ctx: &BsdfContext, wi: Vec3, wo: Vec3) -> Rgb {
-        let f = self.frame(ctx);
-        let wo_p = f.to_local(wo);
-        if wo.z * wo_p.z <= 0.0 {
-            return Rgb::ZERO;
-        }
-        self.nested.eval(ctx, f.to_local(wi), wo_p)
+        eval_in_frame(&self.nested, &self.frame(ctx), ctx, wi, wo)
     }
 
     pub(super) fn pdf(&self, ctx: &BsdfContext, wi: Vec3, wo: Vec3) -> f32 {
-        let f = self.frame(ctx);
-        let wo_p = f.to_local(wo);
-        if wo.z * wo_p.z <= 0.0 {
-            return 0.0;
-        }
-        self.nested.pdf(ctx, f.to_local(wi), wo_p)
+        pdf_in_frame(&self.nested, &self.frame(ctx), ctx, wi, wo)
     }
 
     pub(super) fn sample(
@@ -55,13 +45,49 @@ impl NormalMap {
         u1: f32,
         u2: Vec2,
     ) -> Option<BsdfSample> {
-        let f = self.frame(ctx);
-        let mut s = self.nested.sample(ctx, f.to_local(wi), u1, u2)?;
-        let wo = f.to_world(s.wo);
-        if wo.z * s.wo.z <= 0.0 {
-            return None;
-        }
-        s.wo = wo;
-        Some(s)
+        sample_in_frame(&self.nested, &self.frame(ctx), ctx, wi, u1, u2)
     }
+}
+
+/// `nested.eval` in the perturbed frame `f` (given in the local shading frame); zero for a `wo` on
+/// different sides of the two normals. Shared by normal and bump maps.
+pub(super) fn eval_in_frame(
+    nested: &Bsdf,
+    f: &Frame,
+    ctx: &BsdfContext,
+    wi: Vec3,
+    wo: Vec3,
+) -> Rgb {
+    let wo_p = f.to_local(wo);
+    if wo.z * wo_p.z <= 0.0 {
+        return Rgb::ZERO;
+    }
+    nested.eval(ctx, f.to_local(wi), wo_p)
+}
+
+/// `nested.pdf` in the perturbed frame `f`, masked as [`eval_in_frame`].
+pub(super) fn pdf_in_frame(nested: &Bsdf, f: &Frame, ctx: &BsdfContext, wi: Vec3, wo: Vec3) -> f32 {
+    let wo_p = f.to_local(wo);
+    if wo.z * wo_p.z <= 0.0 {
+        return 0.0;
+    }
+    nested.pdf(ctx, f.to_local(wi), wo_p)
+}
+
+/// `nested.sample` in the perturbed frame `f`; `None` for a `wo` masked as in [`eval_in_frame`].
+pub(super) fn sample_in_frame(
+    nested: &Bsdf,
+    f: &Frame,
+    ctx: &BsdfContext,
+    wi: Vec3,
+    u1: f32,
+    u2: Vec2,
+) -> Option<BsdfSample> {
+    let mut s = nested.sample(ctx, f.to_local(wi), u1, u2)?;
+    let wo = f.to_world(s.wo);
+    if wo.z * s.wo.z <= 0.0 {
+        return None;
+    }
+    s.wo = wo;
+    Some(s)
 }

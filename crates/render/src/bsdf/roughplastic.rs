@@ -6,10 +6,14 @@
 //! interface, tabulated at 64 cosines and interpolated linearly, and (ii) the internal diffuse
 //! reflectance, 2∫ r(μ, 1/η) μ dμ. Both integrate over visible microfacet normals with tensor
 //! Gauss-Legendre quadrature (32² nodes for the transmittance, 128² for the internal reflectance), as
-//! Mitsuba's `eval_transmittance` / `eval_reflectance`.
+//! Mitsuba's `eval_transmittance` / `eval_reflectance` (see rough_interface.rs).
 
-use super::fresnel::{fresnel_dielectric, reflect_about, refract_about};
+use super::fresnel::{fresnel_dielectric, reflect_about};
 use super::microfacet::{Microfacet, MicrofacetKind};
+use super::rough_interface::{
+    direction_at, gauss_legendre, rough_reflectance, rough_transmittance, table_cosines,
+    TransmittanceTable, TRANSMITTANCE_RES,
+};
 use super::TextureAt;
 use super::{is_positive, texture_mean, BsdfContext, BsdfSample};
 use crate::color::Rgb;
@@ -18,9 +22,6 @@ use crate::warp::{square_to_cosine_hemisphere, square_to_cosine_hemisphere_pdf};
 use glam::{Vec2, Vec3};
 use rayon::prelude::*;
 use std::f32::consts::FRAC_1_PI;
-
-/// Resolution of the external transmittance table (Mitsuba's `MI_ROUGH_TRANSMITTANCE_RES`).
-const TRANSMITTANCE_RES: usize = 64;
 
 /// Rough plastic (isotropic roughness).
 #[derive(Clone, Debug)]
@@ -37,76 +38,8 @@ pub struct RoughPlastic {
     pub nonlinear: bool,
     inv_eta_2: f32,
     specular_sampling_weight: f32,
-    external_transmittance: Box<[f32; TRANSMITTANCE_RES]>,
+    external_transmittance: TransmittanceTable,
     internal_reflectance: f32,
-}
-
-/// Gauss-Legendre nodes and weights on [-1, 1] (Newton iteration on Legendre polynomials).
-fn gauss_legendre(n: usize) -> Vec<(f64, f64)> {
-    let mut out = Vec::with_capacity(n);
-    for i in 0..n {
-        let mut x = (std::f64::consts::PI * (i as f64 + 0.75) / (n as f64 + 0.5)).cos();
-        let mut dp = 1.0;
-        for _ in 0..100 {
-            let (mut p0, mut p1) = (1.0f64, x);
-            for k in 2..=n {
-                let p2 = ((2 * k - 1) as f64 * x * p1 - (k - 1) as f64 * p0) / k as f64;
-                p0 = p1;
-                p1 = p2;
-            }
-            // p1 = P_n(x), p0 = P_{n-1}(x).
-            dp = n as f64 * (x * p1 - p0) / (x * x - 1.0);
-            let dx = p1 / dp;
-            x -= dx;
-            if dx.abs() < 1e-15 {
-                break;
-            }
-        }
-        out.push((x, 2.0 / ((1.0 - x * x) * dp * dp)));
-    }
-    out
-}
-
-/// Average over visible normals (from `wi`) of `f(m)`, by tensor Gauss-Legendre quadrature.
-fn visible_normal_average(
-    dist: &Microfacet,
-    wi: Vec3,
-    nodes: &[(f64, f64)],
-    f: impl Fn(Vec3) -> f64,
-) -> f64 {
-    let mut acc = 0.0;
-    for &(x, wx) in nodes {
-        for &(y, wy) in nodes {
-            let u = Vec2::new((0.5 * x + 0.5) as f32, (0.5 * y + 0.5) as f32);
-            let (m, _) = dist.sample(wi, u);
-            acc += f(m) * wx * wy;
-        }
-    }
-    acc * 0.25
-}
-
-/// Fraction of light from `wi` transmitted through a rough interface of relative IOR `eta`, including
-/// the masking of the refracted direction.
-fn rough_transmittance(dist: &Microfacet, wi: Vec3, eta: f32, nodes: &[(f64, f64)]) -> f64 {
-    visible_normal_average(dist, wi, nodes, |m| {
-        let fr = fresnel_dielectric(wi.dot(m), eta);
-        let wo = refract_about(wi, m, fr.cos_theta_t, fr.eta_ti);
-        if wo.z * wi.z >= 0.0 {
-            return 0.0;
-        }
-        (dist.smith_g1(wo, m) * (1.0 - fr.f)) as f64
-    })
-}
-
-/// Fraction of light from `wi` reflected by a rough interface of relative IOR `eta`.
-fn rough_reflectance(dist: &Microfacet, wi: Vec3, eta: f32, nodes: &[(f64, f64)]) -> f64 {
-    visible_normal_average(dist, wi, nodes, |m| {
-        let wo = reflect_about(wi, m);
-        if wo.z <= 0.0 || wi.z <= 0.0 {
-            return 0.0;
-        }
-        (dist.smith_g1(wo, m) * fresnel_dielectric(wi.dot(m), eta).f) as f64
-    })
 }
 
 impl RoughPlastic {
@@ -126,10 +59,8 @@ impl RoughPlastic {
             sample_visible: true,
             ..distribution
         };
-        let mus: Vec<f32> = (0..TRANSMITTANCE_RES)
-            .map(|i| (i as f32 / (TRANSMITTANCE_RES - 1) as f32).max(1e-6))
-            .collect();
-        let dir = |mu: f32| Vec3::new((1.0 - mu * mu).max(0.0).sqrt(), 0.0, mu);
+        let mus = table_cosines();
+        let dir = direction_at;
         let nodes_t = gauss_legendre(if eta > 1.0 { 32 } else { 128 });
         let nodes_r = gauss_legendre(if 1.0 / eta > 1.0 { 32 } else { 128 });
         // (transmittance, reflectance·μ) per cosine; parallel because the tables cost ~1M microfacet samples.
@@ -142,10 +73,8 @@ impl RoughPlastic {
                 )
             })
             .collect();
-        let mut external_transmittance = Box::new([0.0f32; TRANSMITTANCE_RES]);
-        for (t, row) in external_transmittance.iter_mut().zip(&rows) {
-            *t = row.0 as f32;
-        }
+        let external_transmittance =
+            TransmittanceTable::from_values(&rows.iter().map(|r| r.0).collect::<Vec<_>>());
         let internal: f64 = rows.iter().map(|r| r.1).sum();
         let internal_reflectance = (2.0 * internal / TRANSMITTANCE_RES as f64) as f32;
 
@@ -167,10 +96,7 @@ impl RoughPlastic {
 
     /// The tabulated external transmittance at cos θ = `mu`.
     fn transmittance(&self, mu: f32) -> f32 {
-        let x = mu.clamp(0.0, 1.0) * (TRANSMITTANCE_RES - 1) as f32;
-        let i = (x as usize).min(TRANSMITTANCE_RES - 2);
-        let t = x - i as f32;
-        self.external_transmittance[i] * (1.0 - t) + self.external_transmittance[i + 1] * t
+        self.external_transmittance.eval(mu)
     }
 
     /// The internal diffuse reflectance of the coating (for tests and diagnostics).

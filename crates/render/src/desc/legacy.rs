@@ -58,6 +58,17 @@ pub(super) fn upgrade_legacy(
     if *class == ObjectClass::Bsdf && MICROFACET_PLUGINS.contains(&plugin) {
         separate_roughness(loc, body)?;
     }
+    // Mitsuba 0.6's bump map has no shadowing term (Mitsuba 3 adds Estevez et al.'s by default).
+    if *class == ObjectClass::Bsdf
+        && plugin == "bumpmap"
+        && !body.names.contains_key("use_shadowing_function")
+    {
+        body.add_prop(Property {
+            name: "use_shadowing_function".into(),
+            value: PropValue::Boolean(false),
+            loc: loc.clone(),
+        })?;
+    }
     if *class == ObjectClass::Texture
         && plugin == "bitmap"
         && !body.names.contains_key("filter_type")

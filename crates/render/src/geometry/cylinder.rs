@@ -126,6 +126,17 @@ impl Cylinder {
         )
     }
 
+    /// The partial derivatives (∂p/∂u, ∂p/∂v) of the surface at world point `p` for the uv of
+    /// [`Cylinder::surface`] (u = φ/2π, v = z).
+    pub fn uv_partials(&self, p: Vec3) -> (Vec3, Vec3) {
+        let l = self.local_on_surface(p);
+        (
+            self.to_world
+                .transform_vector3(Vec3::new(-l.y as f32, l.x as f32, 0.0) * (2.0 * PI)),
+            self.to_world.transform_vector3(Vec3::Z),
+        )
+    }
+
     /// Surface area 2π·r·length.
     pub fn area(&self) -> f32 {
         self.area

@@ -70,6 +70,23 @@ impl Disk {
         Vec2::new((l.x * l.x + l.y * l.y).sqrt(), phi / (2.0 * PI))
     }
 
+    /// The partial derivatives (∂p/∂u, ∂p/∂v) of the surface at `p` for [`Disk::uv`] (u = r, v = φ/2π).
+    pub fn uv_partials(&self, p: Vec3) -> (Vec3, Vec3) {
+        let l = self.to_local.transform_point3(p);
+        let r = (l.x * l.x + l.y * l.y).sqrt();
+        let (cos_phi, sin_phi) = if r > 1e-7 {
+            (l.x / r, l.y / r)
+        } else {
+            (1.0, 0.0)
+        };
+        (
+            self.to_world
+                .transform_vector3(Vec3::new(cos_phi, sin_phi, 0.0)),
+            self.to_world
+                .transform_vector3(Vec3::new(-l.y, l.x, 0.0) * (2.0 * PI)),
+        )
+    }
+
     /// Surface area.
     pub fn area(&self) -> f32 {
         self.area

@@ -16,6 +16,10 @@ pub struct SurfaceInteraction {
     pub sh_frame: Frame,
     /// Surface uv coordinates.
     pub uv: Vec2,
+    /// ∂p/∂u of the surface's uv parameterisation (world space, not normalised), for bump maps.
+    pub dp_du: Vec3,
+    /// ∂p/∂v (world space, not normalised).
+    pub dp_dv: Vec3,
     /// Index of the shape (scene-level) that was hit.
     pub shape: u32,
     /// Triangle index within a mesh (0 for analytic shapes).

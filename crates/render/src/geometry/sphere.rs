@@ -79,6 +79,22 @@ impl Sphere {
         Vec2::new(phi / (2.0 * PI), l.z.clamp(-1.0, 1.0).acos() / PI)
     }
 
+    /// The partial derivatives (∂p/∂u, ∂p/∂v) of the surface at `p` for [`Sphere::uv`] (as Mitsuba 3's
+    /// sphere; ∂p/∂v is along the meridian at the poles, where φ is undefined).
+    pub fn uv_partials(&self, p: Vec3) -> (Vec3, Vec3) {
+        let l = p - self.center;
+        let rho = (l.x * l.x + l.y * l.y).sqrt();
+        let (cos_phi, sin_phi) = if rho > 1e-7 * self.radius {
+            (l.x / rho, l.y / rho)
+        } else {
+            (1.0, 0.0)
+        };
+        (
+            Vec3::new(-l.y, l.x, 0.0) * (2.0 * PI),
+            Vec3::new(l.z * cos_phi, l.z * sin_phi, -rho) * PI,
+        )
+    }
+
     /// Surface area.
     pub fn area(&self) -> f32 {
         4.0 * PI * self.radius * self.radius

@@ -51,6 +51,8 @@ pub(crate) fn bsdf_context(
     first_hit: bool,
 ) -> BsdfContext {
     let mut ctx = BsdfContext::at_uv(si.uv);
+    ctx.dp_du = si.to_local(si.dp_du);
+    ctx.dp_dv = si.to_local(si.dp_dv);
     if let (true, Some(d)) = (first_hit, differential) {
         ctx.footprint = scene.uv_footprint(si, d);
     }

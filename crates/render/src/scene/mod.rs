@@ -181,27 +181,30 @@ impl Scene {
                     }
                     None => ng,
                 };
-                // dp/du from the uv parameterisation gives anisotropic BSDFs a consistent tangent.
-                let (uv, tangent) = match &m.uvs {
+                // dp/du from the uv parameterisation gives anisotropic BSDFs a consistent tangent and
+                // bump maps their surface derivatives; without uvs, uv are the barycentrics (Mitsuba 3).
+                let (uv, dp_du, dp_dv) = match &m.uvs {
                     Some(uvs) => {
                         let (t0, t1, t2) = (uvs[i0], uvs[i1], uvs[i2]);
                         let (d1, d2) = (t1 - t0, t2 - t0);
                         let det = d1.x * d2.y - d1.y * d2.x;
-                        let tangent = if det.abs() > 1e-12 {
-                            (e1 * d2.y - e2 * d1.y) / det
+                        let (dp_du, dp_dv) = if det.abs() > 1e-12 {
+                            ((e1 * d2.y - e2 * d1.y) / det, (e2 * d1.x - e1 * d2.x) / det)
                         } else {
-                            e1
+                            (e1, e2)
                         };
-                        (t0 * b0 + t1 * b.x + t2 * b.y, tangent)
+                        (t0 * b0 + t1 * b.x + t2 * b.y, dp_du, dp_dv)
                     }
-                    None => (b, e1),
+                    None => (b, e1, e2),
                 };
                 SurfaceInteraction {
                     t: hit.t,
                     p,
                     ng,
-                    sh_frame: Frame::from_normal_tangent(ns, tangent),
+                    sh_frame: Frame::from_normal_tangent(ns, dp_du),
                     uv,
+                    dp_du,
+                    dp_dv,
                     shape,
                     prim: hit.prim,
                 }
@@ -209,14 +212,15 @@ impl Scene {
             ShapeGeometry::Sphere(s) => {
                 let p = s.project(ray.at(hit.t));
                 let n = s.normal(p);
-                let l = p - s.center;
-                let tangent = Vec3::new(-l.y, l.x, 0.0);
+                let (dp_du, dp_dv) = s.uv_partials(p);
                 SurfaceInteraction {
                     t: hit.t,
                     p,
                     ng: n,
-                    sh_frame: Frame::from_normal_tangent(n, tangent),
+                    sh_frame: Frame::from_normal_tangent(n, dp_du),
                     uv: s.uv(p),
+                    dp_du,
+                    dp_dv,
                     shape,
                     prim: 0,
                 }
@@ -224,24 +228,30 @@ impl Scene {
             ShapeGeometry::Disk(d) => {
                 let p = ray.at(hit.t);
                 let n = d.normal();
+                let (dp_du, dp_dv) = d.uv_partials(p);
                 SurfaceInteraction {
                     t: hit.t,
                     p,
                     ng: n,
                     sh_frame: Frame::from_normal(n),
                     uv: d.uv(p),
+                    dp_du,
+                    dp_dv,
                     shape,
                     prim: 0,
                 }
             }
             ShapeGeometry::Cylinder(c) => {
                 let (p, n, uv, tangent) = c.surface(ray.at(hit.t));
+                let (dp_du, dp_dv) = c.uv_partials(p);
                 SurfaceInteraction {
                     t: hit.t,
                     p,
                     ng: n,
                     sh_frame: Frame::from_normal_tangent(n, tangent),
                     uv,
+                    dp_du,
+                    dp_dv,
                     shape,
                     prim: hit.prim,
                 }

@@ -4,7 +4,7 @@
 
 use super::mipmap::{Level, MipMap};
 use super::{load_raw_image, UvFootprint, UvTransform, WrapMode};
-use crate::color::{srgb_to_linear, Rgb};
+use crate::color::{luminance, srgb_to_linear, Rgb};
 use crate::desc::ObjectDesc;
 use crate::error::{SceneError, SceneResult};
 use glam::{Vec2, Vec3};
@@ -247,6 +247,24 @@ impl Bitmap {
             BitmapFilter::Nearest => finest.nearest(uv, self.wrap),
             _ => finest.bilinear(uv, self.wrap),
         }
+    }
+
+    /// The gradient (∂/∂u, ∂/∂v) of the luminance of the full-resolution image's bilinear
+    /// interpolation at `uv`, through the uv transform (Mitsuba 3's `eval_1_grad`: zero for `nearest`,
+    /// whose lookups are piecewise constant).
+    pub fn eval_1_grad(&self, uv: Vec2) -> Vec2 {
+        if self.filter == BitmapFilter::Nearest {
+            return Vec2::ZERO;
+        }
+        let t = self.to_uv.apply(uv);
+        if !t.is_finite() {
+            return Vec2::ZERO;
+        }
+        let [du, dv] = self.pyramid.finest().bilinear_grad(t, self.wrap);
+        let (gu, gv) = (luminance(du), luminance(dv));
+        // Chain rule through the affine map u' = m0·u + m1·v + m2, v' = m3·u + m4·v + m5.
+        let m = &self.to_uv.m;
+        Vec2::new(gu * m[0] + gv * m[3], gu * m[1] + gv * m[4])
     }
 
     /// The value at `uv` filtered over the footprint `fp` (uv units before the uv transform).

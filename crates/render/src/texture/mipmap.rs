@@ -49,6 +49,25 @@ impl Level {
         top * (1.0 - ty) + bottom * ty
     }
 
+    /// The derivatives ∂/∂u and ∂/∂v of [`Level::bilinear`] at `uv` (constant within a cell between
+    /// four texel centres), as Mitsuba 3's `eval_1_grad`.
+    #[inline]
+    pub fn bilinear_grad(&self, uv: Vec2, wrap: [WrapMode; 2]) -> [Rgb; 2] {
+        let x = wrap[0].reduce(uv.x as f64 * self.width as f64, self.width);
+        let y = wrap[1].reduce(uv.y as f64 * self.height as f64, self.height);
+        let (fx, fy) = (x - 0.5, y - 0.5);
+        let (x0, y0) = (fx.floor(), fy.floor());
+        let (tx, ty) = ((fx - x0) as f32, (fy - y0) as f32);
+        let (x0, y0) = (x0 as i64, y0 as i64);
+        let f00 = self.texel(x0, y0, wrap);
+        let f10 = self.texel(x0 + 1, y0, wrap);
+        let f01 = self.texel(x0, y0 + 1, wrap);
+        let f11 = self.texel(x0 + 1, y0 + 1, wrap);
+        let d_x = (f10 - f00) * (1.0 - ty) + (f11 - f01) * ty;
+        let d_y = (f01 - f00) * (1.0 - tx) + (f11 - f10) * tx;
+        [d_x * self.width as f32, d_y * self.height as f32]
+    }
+
     /// The texel containing `uv` (no interpolation).
     #[inline]
     pub fn nearest(&self, uv: Vec2, wrap: [WrapMode; 2]) -> Rgb {

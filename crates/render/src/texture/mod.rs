@@ -303,6 +303,16 @@ impl Texture {
         (c.x + c.y + c.z) / 3.0
     }
 
+    /// The gradient (∂/∂u, ∂/∂v) of the scalar value at `uv` (luminance for colour bitmaps, as Mitsuba
+    /// 3's `eval_1_grad`), for bump maps; zero where the texture is piecewise constant.
+    #[inline]
+    pub fn eval_1_grad(&self, uv: Vec2) -> Vec2 {
+        match self {
+            Texture::Bitmap(b) => b.eval_1_grad(uv),
+            Texture::Constant(_) | Texture::Checkerboard(_) => Vec2::ZERO,
+        }
+    }
+
     /// The largest value anywhere (for bounds and albedo estimates).
     pub fn max_value(&self) -> f32 {
         match self {

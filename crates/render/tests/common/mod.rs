@@ -1,6 +1,8 @@
 //! Helpers shared by the integration tests.
 #![allow(dead_code)]
 
+pub mod bsdf_check;
+
 use focal_render::desc::xml::parse_scene_str;
 use focal_render::film::Image;
 use focal_render::load::{load_scene, make_integrator};
