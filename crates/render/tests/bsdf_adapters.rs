@@ -9,8 +9,8 @@ use common::bsdf_check::{check_case, Case, Energy};
 use common::*;
 use focal_render::bsdf::fresnel::fresnel_dielectric;
 use focal_render::bsdf::{
-    shadow_terminator, Bsdf, BsdfContext, BumpMap, Coating, Conductor, Dielectric, Diffuse,
-    Microfacet, MicrofacetKind, Mixture, NormalMap, Plastic, RoughCoating, RoughConductor,
+    shadow_terminator, Bsdf, BsdfContext, BumpMap, Coating, CoatingLayer, Conductor, Dielectric,
+    Diffuse, Microfacet, MicrofacetKind, Mixture, NormalMap, Plastic, RoughCoating, RoughConductor,
 };
 use focal_render::color::Rgb;
 use focal_render::texture::{Bitmap, BitmapFilter, Texture, UvTransform, WrapMode};
@@ -98,24 +98,20 @@ fn tilt_scale(deg: f32) -> f32 {
     deg.to_radians().tan() / 2.0
 }
 
+/// A layer of relative IOR `eta`, thickness 1 and absorption `sigma_a`.
+fn layer(eta: f32, sigma_a: f32) -> CoatingLayer {
+    CoatingLayer::new(eta, 1.0, Texture::constant(sigma_a), Texture::constant(1.0))
+}
+
 fn coating(nested: Bsdf, eta: f32, sigma_a: f32) -> Bsdf {
-    Bsdf::Coating(Box::new(Coating::new(
-        nested,
-        eta,
-        1.0,
-        Texture::constant(sigma_a),
-        Texture::constant(1.0),
-    )))
+    Bsdf::Coating(Box::new(Coating::new(nested, layer(eta, sigma_a))))
 }
 
 fn rough_coating(nested: Bsdf, kind: MicrofacetKind, alpha: f32, eta: f32, sigma_a: f32) -> Bsdf {
     Bsdf::RoughCoating(Box::new(RoughCoating::new(
         nested,
         Microfacet::new(kind, alpha, alpha, true),
-        eta,
-        1.0,
-        Texture::constant(sigma_a),
-        Texture::constant(1.0),
+        layer(eta, sigma_a),
     )))
 }
 
@@ -618,8 +614,8 @@ fn coatings_are_read_from_mitsuba06_xml() {
     let Bsdf::Coating(c) = &s.scene.bsdfs[s.scene.shapes[0].bsdf as usize] else {
         panic!("a coating")
     };
-    assert!((c.eta - 1.7 / 1.000277).abs() < 1e-5 && c.thickness == 2.0);
-    assert_eq!(c.sigma_a.eval(Vec2::ZERO), Vec3::new(0.1, 0.2, 0.3));
+    assert!((c.layer.eta - 1.7 / 1.000277).abs() < 1e-5 && c.layer.thickness == 2.0);
+    assert_eq!(c.layer.sigma_a.eval(Vec2::ZERO), Vec3::new(0.1, 0.2, 0.3));
     assert!(matches!(c.nested, Bsdf::RoughConductor(_)));
 
     let s = try_load(&sphere_scene(
@@ -635,7 +631,7 @@ fn coatings_are_read_from_mitsuba06_xml() {
     };
     assert_eq!(c.distribution.kind, MicrofacetKind::Ggx);
     assert_eq!(c.distribution.alpha_u, 0.3);
-    assert!((c.eta - 1.5046 / 1.000277).abs() < 1e-5);
+    assert!((c.layer.eta - 1.5046 / 1.000277).abs() < 1e-5);
 
     for (inner, needle, line) in [
         (r#"<bsdf type="dielectric"/>"#, "transmissive", 9),

@@ -3,11 +3,11 @@
 
 use super::build::build_bsdf;
 use super::params::{microfacet, relative_ior, texture, texture_from_desc};
-use super::{Bsdf, BumpMap, Coating, Mixture, RoughCoating};
+
+use super::{Bsdf, BumpMap, Coating, CoatingLayer, Mixture, RoughCoating};
 use crate::color::Rgb;
 use crate::desc::{ObjectClass, ObjectDesc, PropValue};
 use crate::error::{SceneError, SceneResult};
-use crate::texture::Texture;
 
 /// `mixturebsdf` (Mitsuba 0.6): nested BSDFs in document order and `weights`, a string of as many
 /// non-negative numbers separated by commas, spaces or semicolons. With `ensureEnergyConservation`
@@ -155,17 +155,9 @@ fn one_reflecting_nested(obj: &ObjectDesc, w: &mut Vec<String>) -> SceneResult<B
     Ok(b)
 }
 
-/// The layer parameters shared by `coating` and `roughcoating`: the nested BSDF, relative IOR,
-/// thickness, σₐ and the specular multiplier.
-struct Layer {
-    nested: Bsdf,
-    eta: f32,
-    thickness: f32,
-    sigma_a: Texture,
-    specular_reflectance: Texture,
-}
-
-fn layer(obj: &ObjectDesc, w: &mut Vec<String>) -> SceneResult<Layer> {
+/// What `coating` and `roughcoating` share: the nested BSDF and the layer (relative IOR, thickness, σₐ
+/// and the specular multiplier).
+fn layer(obj: &ObjectDesc, w: &mut Vec<String>) -> SceneResult<(Bsdf, CoatingLayer)> {
     let nested = one_reflecting_nested(obj, w)?;
     let eta = relative_ior(obj, "bk7", true)?;
     let thickness = obj.float_or("thickness", 1.0)?;
@@ -188,39 +180,25 @@ fn layer(obj: &ObjectDesc, w: &mut Vec<String>) -> SceneResult<Layer> {
         ));
     }
     let specular_reflectance = texture(obj, &["specular_reflectance"], Rgb::ONE)?;
-    Ok(Layer {
-        nested,
-        eta,
-        thickness: thickness as f32,
-        sigma_a,
-        specular_reflectance,
-    })
+    let layer = CoatingLayer::new(eta, thickness as f32, sigma_a, specular_reflectance);
+    Ok((nested, layer))
 }
 
 /// `coating` (Mitsuba 0.6): one nested BSDF, `intIOR` (bk7) / `extIOR` (air), `thickness` (1),
 /// `sigmaA` (0, spectrum or texture) and `specularReflectance` (1).
 pub(super) fn coating(obj: &ObjectDesc, w: &mut Vec<String>) -> SceneResult<Bsdf> {
-    let l = layer(obj, w)?;
-    Ok(Bsdf::Coating(Box::new(Coating::new(
-        l.nested,
-        l.eta,
-        l.thickness,
-        l.sigma_a,
-        l.specular_reflectance,
-    ))))
+    let (nested, layer) = layer(obj, w)?;
+    Ok(Bsdf::Coating(Box::new(Coating::new(nested, layer))))
 }
 
 /// `roughcoating` (Mitsuba 0.6): as `coating`, plus the isotropic microfacet parameters
 /// (`distribution` beckmann, `alpha` 0.1, `sample_visible`).
 pub(super) fn roughcoating(obj: &ObjectDesc, w: &mut Vec<String>) -> SceneResult<Bsdf> {
-    let l = layer(obj, w)?;
+    let (nested, layer) = layer(obj, w)?;
     let distribution = microfacet(obj, false, w)?;
     Ok(Bsdf::RoughCoating(Box::new(RoughCoating::new(
-        l.nested,
+        nested,
         distribution,
-        l.eta,
-        l.thickness,
-        l.sigma_a,
-        l.specular_reflectance,
+        layer,
     ))))
 }

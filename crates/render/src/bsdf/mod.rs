@@ -39,7 +39,7 @@ mod ward;
 pub use blend::Blend;
 pub use build::{bsdf_from_desc, build_bsdf};
 pub use bumpmap::{shadow_terminator, BumpMap};
-pub use coating::Coating;
+pub use coating::{Coating, CoatingLayer};
 pub use conductor::Conductor;
 pub use dielectric::Dielectric;
 pub use difftrans::DiffuseTransmitter;

@@ -10,14 +10,13 @@
 //! keeps the probability of having chosen it (Mitsuba 0.6 drops the 1 − p of the lobe choice there).
 //! The interface reflects on both sides, as Mitsuba 0.6's front- and back-side glossy component.
 
-use super::coating::refract_keep_side;
+use super::coating::{refract_keep_side, CoatingLayer};
 use super::fresnel::{fresnel_dielectric, reflect_about};
 use super::microfacet::Microfacet;
 use super::rough_interface::TransmittanceTable;
 use super::TextureAt;
 use super::{is_positive, Bsdf, BsdfContext, BsdfSample};
 use crate::color::Rgb;
-use crate::texture::Texture;
 use glam::{Vec2, Vec3};
 
 /// A nested BSDF under a rough dielectric layer (isotropic roughness).
@@ -27,16 +26,8 @@ pub struct RoughCoating {
     pub nested: Bsdf,
     /// Microfacet distribution of the interface.
     pub distribution: Microfacet,
-    /// Relative IOR of the layer (int_ior / ext_ior).
-    pub eta: f32,
-    /// Absorption coefficient σₐ of the layer (in inverse units of `thickness`).
-    pub sigma_a: Texture,
-    /// Thickness of the layer.
-    pub thickness: f32,
-    /// Multiplier of the specular reflection (1 for physical realism).
-    pub specular_reflectance: Texture,
-    inv_eta_2: f32,
-    specular_sampling_weight: f32,
+    /// The layer.
+    pub layer: CoatingLayer,
     transmittance: TransmittanceTable,
 }
 
@@ -51,39 +42,13 @@ fn side(w: Vec3, flip: bool) -> Vec3 {
 }
 
 impl RoughCoating {
-    /// A rough coating with its precomputed transmittance table.
-    pub fn new(
-        nested: Bsdf,
-        distribution: Microfacet,
-        eta: f32,
-        thickness: f32,
-        sigma_a: Texture,
-        specular_reflectance: Texture,
-    ) -> Self {
-        let avg = (sigma_a.mean() * (-2.0 * thickness)).exp();
-        let avg_absorption = (avg.x + avg.y + avg.z) / 3.0;
+    /// `nested` under a rough `layer`, with its precomputed transmittance table.
+    pub fn new(nested: Bsdf, distribution: Microfacet, layer: CoatingLayer) -> Self {
         RoughCoating {
-            transmittance: TransmittanceTable::new(&distribution, eta),
+            transmittance: TransmittanceTable::new(&distribution, layer.eta),
             nested,
             distribution,
-            eta,
-            sigma_a,
-            thickness,
-            specular_reflectance,
-            inv_eta_2: 1.0 / (eta * eta),
-            specular_sampling_weight: 1.0 / (avg_absorption + 1.0),
-        }
-    }
-
-    #[inline]
-    fn prob_specular(&self, t_i: f32) -> f32 {
-        let w = self.specular_sampling_weight;
-        let a = (1.0 - t_i) * w;
-        let b = t_i * (1.0 - w);
-        if a + b > 0.0 {
-            a / (a + b)
-        } else {
-            0.0
+            layer,
         }
     }
 
@@ -101,8 +66,9 @@ impl RoughCoating {
         if !(d > 0.0) {
             return (Rgb::ZERO, 0.0);
         }
-        let f = fresnel_dielectric(wi.dot(h), self.eta).f;
-        let value = self.specular_reflectance.at(ctx) * (f * d * dist.g(wi, wo, h) / (4.0 * wi.z));
+        let f = fresnel_dielectric(wi.dot(h), self.layer.eta).f;
+        let value =
+            self.layer.specular_reflectance.at(ctx) * (f * d * dist.g(wi, wo, h) / (4.0 * wi.z));
         let pdf = if dist.sample_visible {
             d * dist.smith_g1(wi, h) / (4.0 * wi.z)
         } else {
@@ -114,12 +80,12 @@ impl RoughCoating {
     /// The nested part: f·cos θₒ and its density (without the lobe choice), through the interface.
     #[inline]
     fn nested_part(&self, ctx: &BsdfContext, wi: Vec3, wo: Vec3) -> (Rgb, f32) {
-        let (wi_p, r12) = refract_keep_side(wi, self.eta);
-        let (wo_p, r21) = refract_keep_side(wo, self.eta);
+        let (wi_p, r12) = refract_keep_side(wi, self.layer.eta);
+        let (wo_p, r21) = refract_keep_side(wo, self.layer.eta);
         if !(r12 < 1.0 && r21 < 1.0 && wo_p.z != 0.0) {
             return (Rgb::ZERO, 0.0);
         }
-        let compression = self.inv_eta_2 * wo.z.abs() / wo_p.z.abs();
+        let compression = self.layer.compression(wo, wo_p);
         let pdf = self.nested.pdf(ctx, wi_p, wo_p) * compression;
         let f = self.nested.eval(ctx, wi_p, wo_p);
         if f == Rgb::ZERO {
@@ -127,18 +93,9 @@ impl RoughCoating {
         }
         let t = self.transmittance.eval(wi.z.abs()) * self.transmittance.eval(wo.z.abs());
         (
-            f * self.absorption(ctx, wi_p, wo_p) * (t * compression),
+            f * self.layer.absorption(ctx, wi_p, wo_p) * (t * compression),
             pdf,
         )
-    }
-
-    #[inline]
-    fn absorption(&self, ctx: &BsdfContext, wi_p: Vec3, wo_p: Vec3) -> Rgb {
-        let depth = self.sigma_a.at(ctx) * self.thickness;
-        if depth == Rgb::ZERO {
-            return Rgb::ONE;
-        }
-        (-depth * (1.0 / wi_p.z.abs() + 1.0 / wo_p.z.abs())).exp()
     }
 
     pub(super) fn eval(&self, ctx: &BsdfContext, wi: Vec3, wo: Vec3) -> Rgb {
@@ -146,7 +103,8 @@ impl RoughCoating {
     }
 
     pub(super) fn pdf(&self, ctx: &BsdfContext, wi: Vec3, wo: Vec3) -> f32 {
-        let ps = self.prob_specular(self.transmittance.eval(wi.z.abs()));
+        let t_i = self.transmittance.eval(wi.z.abs());
+        let ps = self.layer.prob_specular(1.0 - t_i, t_i);
         ps * self.specular(ctx, wi, wo).1 + (1.0 - ps) * self.nested_part(ctx, wi, wo).1
     }
 
@@ -158,26 +116,26 @@ impl RoughCoating {
         u2: Vec2,
     ) -> Option<BsdfSample> {
         let t_i = self.transmittance.eval(wi.z.abs());
-        let ps = self.prob_specular(t_i);
+        let ps = self.layer.prob_specular(1.0 - t_i, t_i);
         let wo = if u1 < ps {
             let flip = wi.z < 0.0;
             let (m, _) = self.distribution.sample(side(wi, flip), u2);
             side(reflect_about(side(wi, flip), m), flip)
         } else {
-            let (wi_p, r12) = refract_keep_side(wi, self.eta);
+            let (wi_p, r12) = refract_keep_side(wi, self.layer.eta);
             if !(r12 < 1.0) {
                 return None;
             }
             let u1 = ((u1 - ps) / (1.0 - ps)).clamp(0.0, 1.0 - f32::EPSILON);
             let mut s = self.nested.sample(ctx, wi_p, u1, u2)?;
             let wo_p = s.wo;
-            let (wo, r21) = refract_keep_side(wo_p, 1.0 / self.eta);
+            let (wo, r21) = refract_keep_side(wo_p, 1.0 / self.layer.eta);
             if !(r21 < 1.0) {
                 return None;
             }
             if s.delta {
                 let t = t_i * self.transmittance.eval(wo.z.abs());
-                s.weight = s.weight * self.absorption(ctx, wi_p, wo_p) * (t / (1.0 - ps));
+                s.weight = s.weight * self.layer.absorption(ctx, wi_p, wo_p) * (t / (1.0 - ps));
                 s.pdf *= 1.0 - ps;
                 s.wo = wo;
                 return Some(s);
@@ -199,8 +157,8 @@ impl RoughCoating {
 
     /// Reflectance at normal incidence: the interface's plus what the nested model returns through it.
     pub(super) fn albedo(&self, ctx: &BsdfContext) -> Rgb {
-        let f = fresnel_dielectric(1.0, self.eta).f;
+        let f = fresnel_dielectric(1.0, self.layer.eta).f;
         let t = self.transmittance.eval(1.0);
-        self.specular_reflectance.at(ctx) * f + self.nested.albedo(ctx) * (t * t)
+        self.layer.specular_reflectance.at(ctx) * f + self.nested.albedo(ctx) * (t * t)
     }
 }
