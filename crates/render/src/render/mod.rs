@@ -165,55 +165,22 @@ pub(crate) fn thread_pool(threads: usize) -> (rayon::ThreadPool, usize) {
     (pool, threads)
 }
 
-/// One camera sample's radiance estimate (and the training segments it records, if any): what a pass
-/// evaluates per sample.
-trait SampleEstimator: Sync {
-    fn estimate(
-        &self,
-        ray: &crate::ray::CameraRay,
-        sampler: &mut Sampler,
-        aovs: &mut FirstHitAovs,
-        training: &mut Vec<TrainingSegment>,
-    ) -> Rgb;
+/// One camera sample's radiance estimate (appending the training segments it records, if any): what a
+/// pass evaluates per sample.
+trait SampleEstimator:
+    Fn(&crate::ray::CameraRay, &mut Sampler, &mut FirstHitAovs, &mut Vec<TrainingSegment>) -> Rgb + Sync
+{
 }
 
-/// An integrator's estimate, recording nothing.
-struct Plain<'a> {
-    scene: &'a Scene,
-    integrator: &'a dyn Integrator,
-}
-
-impl SampleEstimator for Plain<'_> {
-    #[inline]
-    fn estimate(
-        &self,
-        ray: &crate::ray::CameraRay,
-        sampler: &mut Sampler,
-        aovs: &mut FirstHitAovs,
-        _: &mut Vec<TrainingSegment>,
-    ) -> Rgb {
-        self.integrator.li(self.scene, ray, sampler, aovs)
-    }
-}
-
-/// The guided integrator's estimate with its training segments.
-struct Recording<'a, 'g> {
-    scene: &'a Scene,
-    integrator: &'a GuidedPathIntegrator<'g>,
-}
-
-impl SampleEstimator for Recording<'_, '_> {
-    #[inline]
-    fn estimate(
-        &self,
-        ray: &crate::ray::CameraRay,
-        sampler: &mut Sampler,
-        aovs: &mut FirstHitAovs,
-        training: &mut Vec<TrainingSegment>,
-    ) -> Rgb {
-        self.integrator
-            .li_recording(self.scene, ray, sampler, aovs, training)
-    }
+impl<F> SampleEstimator for F where
+    F: Fn(
+            &crate::ray::CameraRay,
+            &mut Sampler,
+            &mut FirstHitAovs,
+            &mut Vec<TrainingSegment>,
+        ) -> Rgb
+        + Sync
+{
 }
 
 /// Renders samples `[first, first + count)` of every pixel of one tile into fresh blocks; with two films,
@@ -243,7 +210,7 @@ fn render_tile<E: SampleEstimator>(
                 let (mut sampler, film_pos, ray) =
                     camera_sample(camera, settings, pixel, width, index);
                 let mut aovs = FirstHitAovs::default();
-                let l = estimator.estimate(&ray, &mut sampler, &mut aovs, &mut segments);
+                let l = estimator(&ray, &mut sampler, &mut aovs, &mut segments);
                 let aov = AovSample {
                     albedo: aovs.albedo,
                     normal: aovs.normal,
@@ -389,7 +356,11 @@ impl<'a> PassRunner<'a> {
         on_tile: &(dyn Fn(u64) + Sync),
     ) {
         let scene = self.scene;
-        self.run_tiles(&Plain { scene, integrator }, count, on_tile);
+        self.run_tiles(
+            &|ray, sampler, aovs, _| integrator.li(scene, ray, sampler, aovs),
+            count,
+            on_tile,
+        );
     }
 
     /// [`Self::run_pass`] with the guided integrator recording training segments, which it returns in
@@ -401,7 +372,13 @@ impl<'a> PassRunner<'a> {
         on_tile: &(dyn Fn(u64) + Sync),
     ) -> Vec<TrainingSegment> {
         let scene = self.scene;
-        self.run_tiles(&Recording { scene, integrator }, count, on_tile)
+        self.run_tiles(
+            &|ray, sampler, aovs, training| {
+                integrator.li_recording(scene, ray, sampler, aovs, training)
+            },
+            count,
+            on_tile,
+        )
     }
 
     fn run_tiles<E: SampleEstimator>(
